@@ -1,0 +1,33 @@
+// Cumulative MESE distribution F_D([0, phi]) in closed form (thesis §8.4.4, eq. 8.9).
+#pragma once
+
+#include <array>
+#include <span>
+
+#include "transient/reconstruct/moments.h"
+
+namespace transient {
+
+// Partial-fraction form of D(phi) = sum_l r_l / (exp(i*phi) - x_l) over the m roots x_l of the
+// denominator polynomial (outside the unit circle) and their mirror images 1/conj(x_l)
+// (inside). Each term integrates to a logarithm; we write it as Log(1 - z) with |z| < 1, the
+// principal branch, which is continuous on all of [0, 2*pi] — no branch tracking needed.
+// Assumes simple roots (true unless two poles coincide exactly; then Init returns false).
+class MeseCumulative {
+ public:
+  // q from Levinson(). Returns false when the partial fractions are degenerate.
+  [[nodiscard]] bool Init(std::span<const Complex> q);
+
+  // F_D([0, phi]) for phi in [0, 2*pi]; F(0) = 0 and F(2*pi) = c_0.
+  double operator()(double phase) const;
+
+ private:
+  int degree_ = 0;
+  // Per root pair: coefficient of the Log term for the outer pole (z = exp(i*phi)/x) and the
+  // inner pole (z = y*exp(-i*phi)), and the poles themselves.
+  std::array<Complex, kMaxOrder> outer_pole_{}, outer_coefficient_{};
+  std::array<Complex, kMaxOrder> inner_pole_{}, inner_coefficient_{};
+  double slope_ = 0.0;  // c_0 / (2*pi)
+};
+
+}  // namespace transient

@@ -1,0 +1,47 @@
+// Shared vocabulary of the numeric core: trigonometric moment vectors, Toeplitz matrices and
+// the conversion between phase and range. Conventions follow DESIGN.md and thesis ch. 2/8.
+#pragma once
+
+#include <complex>
+#include <numbers>
+#include <span>
+
+#include <Eigen/Core>
+
+namespace transient {
+
+using Complex = std::complex<double>;
+
+// The largest number of complex moments c_1..c_m that the core accepts (1 <= m <= kMaxOrder).
+inline constexpr int kMaxOrder = 16;
+inline constexpr int kMaxMoments = kMaxOrder + 1;
+
+inline constexpr double kSpeedOfLight = 299'792'458.0;  // m/s
+inline constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+// A Hermitian Toeplitz matrix of at most kMaxMoments rows, kept on the stack.
+using ToeplitzMatrix =
+    Eigen::Matrix<Complex, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxMoments, kMaxMoments>;
+using SmallVector = Eigen::Matrix<Complex, Eigen::Dynamic, 1, 0, kMaxMoments, 1>;
+
+// C(c) = (c_{j-k})_{j,k=0..m} with c_{-j} = conj(c_j) (thesis def. 2.10). Only c_0's real part
+// is used: c_0 is real by definition.
+ToeplitzMatrix MakeToeplitz(std::span<const Complex> c);
+
+// Trigonometric moments c_j = sum_l w_l exp(i*j*phi_l), j = 0..m, of a sum of Dirac deltas
+// (thesis eq. 8.1). `moments` has m+1 entries.
+void DiracMoments(std::span<const double> phases, std::span<const double> weights,
+                  std::span<Complex> moments);
+
+// Phase phi = 2*pi*f*tau of a round trip; range = c*tau/2 = c*phi/(4*pi*f) (thesis §8.4.3).
+inline double PhaseToRange(double phase, double base_frequency_hz) {
+  return kSpeedOfLight * phase / (2.0 * kTwoPi * base_frequency_hz);
+}
+inline double RangeToPhase(double range_m, double base_frequency_hz) {
+  return range_m * 2.0 * kTwoPi * base_frequency_hz / kSpeedOfLight;
+}
+
+// Wraps a phase into [0, 2*pi).
+double WrapPhase(double phase);
+
+}  // namespace transient

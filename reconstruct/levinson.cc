@@ -1,0 +1,61 @@
+// Levinson's algorithm (thesis alg. 8.1) and its inverse (thesis alg. B.3).
+#include "transient/reconstruct/levinson.h"
+
+#include <array>
+#include <cassert>
+#include <cmath>
+
+namespace transient {
+
+bool Levinson(std::span<const Complex> c, std::span<Complex> q) {
+  assert(c.size() == q.size() && !c.empty() && c.size() <= kMaxMoments);
+  const int m = static_cast<int>(c.size()) - 1;
+  const double c0 = c[0].real();
+  if (!(c0 > 0.0) || !std::isfinite(c0)) return false;
+  q[0] = 1.0 / c0;
+  std::array<Complex, kMaxMoments> reversed;
+  for (int l = 1; l <= m; ++l) {
+    // d is the reflection coefficient of step l; |d| < 1 iff the leading (l+1)x(l+1) minor
+    // of C(c) is positive definite (given that the l x l one is).
+    Complex d = 0.0;
+    for (int k = 0; k < l; ++k) d += q[k] * c[l - k];
+    const double norm_d = std::norm(d);
+    if (!(norm_d < 1.0)) return false;  // also catches NaN
+    const double scale = 1.0 / (1.0 - norm_d);
+    for (int k = 0; k < l; ++k) reversed[k + 1] = std::conj(q[l - 1 - k]);
+    reversed[0] = 0.0;
+    q[l] = 0.0;
+    for (int k = 0; k <= l; ++k) q[k] = scale * (q[k] - d * reversed[k]);
+  }
+  q[0] = Complex(q[0].real(), 0.0);  // real in exact arithmetic
+  return std::isfinite(q[0].real());
+}
+
+void InverseLevinson(std::span<const Complex> q, std::span<Complex> c) {
+  assert(c.size() == q.size() && !q.empty() && q.size() <= kMaxMoments);
+  assert(q[0].real() > 0.0);
+  const int m = static_cast<int>(q.size()) - 1;
+  // Row l of the lower triangular L holds q^{(l)} reversed: L_{l,j} = q^{(l)}_{l-j}, where
+  // q^{(l)} = C^{(l)}(c)^{-1} e_0 for the leading (l+1)x(l+1) minor; then L C(c) is upper
+  // triangular with unit diagonal, so c = C(c) e_0 = L^{-1} e_0.
+  std::array<std::array<Complex, kMaxMoments>, kMaxMoments> lower;
+  std::array<Complex, kMaxMoments> current;
+  for (int j = 0; j <= m; ++j) current[j] = q[j];
+  for (int l = m; l >= 0; --l) {
+    for (int j = 0; j <= l; ++j) lower[l][j] = current[l - j];
+    if (l == 0) break;
+    // p = (conj q_l, ..., conj q_0); undo one Levinson step: q^{(l-1)} = q^{(l)} - q_l/p_l * p.
+    const Complex ratio = current[l] / std::conj(current[0]);
+    std::array<Complex, kMaxMoments> next;
+    for (int j = 0; j < l; ++j) next[j] = current[j] - ratio * std::conj(current[l - j]);
+    for (int j = 0; j < l; ++j) current[j] = next[j];
+  }
+  for (int l = 0; l <= m; ++l) {
+    Complex sum = (l == 0) ? Complex(1.0) : Complex(0.0);
+    for (int j = 0; j < l; ++j) sum -= lower[l][j] * c[j];
+    c[l] = sum / lower[l][l];
+  }
+  c[0] = Complex(c[0].real(), 0.0);
+}
+
+}  // namespace transient

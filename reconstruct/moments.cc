@@ -1,0 +1,48 @@
+// Toeplitz matrices and moments of Dirac measures (thesis def. 2.10, eq. 8.1).
+#include "transient/reconstruct/moments.h"
+
+#include <cassert>
+#include <cmath>
+
+namespace transient {
+
+ToeplitzMatrix MakeToeplitz(std::span<const Complex> c) {
+  const int n = static_cast<int>(c.size());
+  assert(n >= 1 && n <= kMaxMoments);
+  ToeplitzMatrix t(n, n);
+  for (int j = 0; j < n; ++j) {
+    for (int k = 0; k < n; ++k) {
+      const int d = j - k;
+      if (d == 0) {
+        t(j, k) = Complex(c[0].real(), 0.0);
+      } else if (d > 0) {
+        t(j, k) = c[d];
+      } else {
+        t(j, k) = std::conj(c[-d]);
+      }
+    }
+  }
+  return t;
+}
+
+void DiracMoments(std::span<const double> phases, std::span<const double> weights,
+                  std::span<Complex> moments) {
+  assert(phases.size() == weights.size());
+  for (size_t j = 0; j < moments.size(); ++j) {
+    Complex sum = 0.0;
+    for (size_t l = 0; l < phases.size(); ++l) {
+      sum += weights[l] * std::polar(1.0, static_cast<double>(j) * phases[l]);
+    }
+    moments[j] = sum;
+  }
+  moments[0] = Complex(moments[0].real(), 0.0);
+}
+
+double WrapPhase(double phase) {
+  double wrapped = std::fmod(phase, kTwoPi);
+  if (wrapped < 0.0) wrapped += kTwoPi;
+  if (wrapped >= kTwoPi) wrapped = 0.0;  // fmod of a tiny negative number plus 2*pi
+  return wrapped;
+}
+
+}  // namespace transient

@@ -1,0 +1,87 @@
+// Pisarenko estimate (thesis alg. 8.2 and its general case, §8.4.1).
+#include "transient/reconstruct/pisarenko.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "transient/reconstruct/polynomial.h"
+
+namespace transient {
+namespace {
+
+// For a simple lambda_min the eigenvector's polynomial has all its roots on the unit circle
+// (Pisarenko 1973); a root farther away than this belongs to a degenerate (repeated)
+// lambda_min, where the kernel holds spurious polynomials, and is not a return.
+constexpr double kUnitCircleTolerance = 1e-3;
+// Returns lighter than this share of the sparse mass are rounding artefacts of degenerate
+// cases (a spurious root on the circle gets a weight of the order of machine epsilon).
+constexpr double kNegligibleWeight = 1e-10;
+
+}  // namespace
+
+bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate) {
+  const int size = static_cast<int>(c.size());
+  const int m = size - 1;
+  const double c0 = c[0].real();
+  if (!(c0 > 0.0) || !std::isfinite(c0)) return false;
+  for (const Complex& value : c) {
+    if (!std::isfinite(value.real()) || !std::isfinite(value.imag())) return false;
+  }
+  const ToeplitzMatrix t = MakeToeplitz(c);
+  Eigen::SelfAdjointEigenSolver<ToeplitzMatrix> solver(t, Eigen::ComputeEigenvectors);
+  const double lambda_min = solver.eigenvalues()[0];
+  estimate->uniform = lambda_min;
+  estimate->count = 0;
+
+  // Roots of sum_j conj(v_j) x^j for the eigenvector v of lambda_min (thesis alg. 8.2, step 2).
+  std::array<Complex, kMaxMoments> coefficients;
+  for (int j = 0; j < size; ++j) coefficients[j] = std::conj(solver.eigenvectors()(j, 0));
+  std::array<Complex, kMaxOrder> roots;
+  const int degree =
+      PolynomialRoots(std::span<const Complex>(coefficients.data(), size), roots);
+  std::array<double, kMaxOrder> phases;
+  int n = 0;
+  for (int l = 0; l < degree; ++l) {
+    const double magnitude = std::abs(roots[l]);
+    if (std::abs(magnitude - 1.0) > kUnitCircleTolerance) continue;
+    phases[n++] = WrapPhase(std::arg(roots[l]));
+  }
+  if (n == 0) return true;  // all light is uniform
+
+  // Real weights from the Vandermonde system against (c_0 - lambda_min, c_1, ..., c_m)
+  // (thesis alg. 8.2, step 3), solved in the least-squares sense over all m+1 equations.
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 2 * kMaxMoments, kMaxOrder> a(
+      2 * size, n);
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMaxMoments, 1> b(2 * size);
+  for (int j = 0; j <= m; ++j) {
+    const Complex target = (j == 0) ? Complex(c0 - lambda_min) : c[j];
+    b(2 * j) = target.real();
+    b(2 * j + 1) = target.imag();
+    for (int l = 0; l < n; ++l) {
+      const Complex x = std::polar(1.0, j * phases[l]);
+      a(2 * j, l) = x.real();
+      a(2 * j + 1, l) = x.imag();
+    }
+  }
+  const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxOrder, 1> w =
+      a.colPivHouseholderQr().solve(b);
+
+  std::array<int, kMaxOrder> order;
+  std::iota(order.begin(), order.begin() + n, 0);
+  std::sort(order.begin(), order.begin() + n,
+            [&](int i, int j) { return phases[i] < phases[j]; });
+  const double sparse_mass = std::max(c0 - lambda_min, 0.0);
+  for (int i = 0; i < n; ++i) {
+    const int l = order[i];
+    if (!(w(l) > kNegligibleWeight * sparse_mass)) continue;
+    estimate->phase[estimate->count] = phases[l];
+    estimate->weight[estimate->count] = w(l);
+    ++estimate->count;
+  }
+  return true;
+}
+
+}  // namespace transient

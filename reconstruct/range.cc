@@ -1,0 +1,95 @@
+// Range from the first MESE peak or Pisarenko return (thesis §8.4.3).
+#include "transient/reconstruct/range.h"
+
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "transient/reconstruct/mese.h"
+
+namespace transient {
+namespace {
+
+constexpr int kNewtonSteps = 8;
+constexpr double kPhaseTolerance = 1e-13;  // radians; Newton stops below this step
+
+// Refines the minimum of the denominator series near grid phase `center` (spacing h): Newton on
+// the derivative while the curvature is positive and the iterate stays within one bin, else the
+// vertex of the parabola through the three grid values.
+double RefineMinimum(std::span<const Complex> a, double center, double h, double left,
+                     double middle, double right) {
+  double phase = center;
+  bool converged = false;
+  for (int step = 0; step < kNewtonSteps; ++step) {
+    const SeriesValue s = EvaluateDenominatorSeries(a, phase);
+    if (!(s.second > 0.0)) break;
+    const double delta = -s.first / s.second;
+    phase += delta;
+    if (std::abs(phase - center) > h) break;
+    if (std::abs(delta) < kPhaseTolerance) {
+      converged = true;
+      break;
+    }
+  }
+  if (converged || (std::abs(phase - center) <= h &&
+                    EvaluateDenominatorSeries(a, phase).value <= middle)) {
+    return phase;
+  }
+  const double curvature = left - 2.0 * middle + right;
+  const double offset = curvature > 0.0 ? 0.5 * (left - right) / curvature : 0.0;
+  return center + std::clamp(offset, -1.0, 1.0) * h;
+}
+
+}  // namespace
+
+double MeseFirstPeakPhase(std::span<const Complex> q, double threshold, int search_bins) {
+  assert(search_bins >= 3);
+  std::array<Complex, kMaxMoments> a_storage;
+  const std::span<Complex> a(a_storage.data(), q.size());
+  MeseDenominatorSeries(q, a);
+  // Peaks of D are minima of the (positive) denominator series.
+  std::vector<double> r(search_bins);
+  const double h = kTwoPi / search_bins;
+  for (int n = 0; n < search_bins; ++n) r[n] = EvaluateDenominatorSeries(a, n * h).value;
+
+  struct Peak {
+    double phase, denominator;
+  };
+  std::vector<Peak> peaks;
+  for (int n = 0; n < search_bins; ++n) {
+    const double left = r[(n + search_bins - 1) % search_bins];
+    const double right = r[(n + 1) % search_bins];
+    if (!(r[n] < left && r[n] <= right)) continue;
+    const double phase = RefineMinimum(a, n * h, h, left, r[n], right);
+    peaks.push_back({WrapPhase(phase), EvaluateDenominatorSeries(a, phase).value});
+  }
+  if (peaks.empty()) return std::numeric_limits<double>::quiet_NaN();
+  // D = q_0 / (2 pi r): the highest density has the smallest denominator.
+  double smallest = std::numeric_limits<double>::infinity();
+  for (const Peak& p : peaks) smallest = std::min(smallest, p.denominator);
+  double first = std::numeric_limits<double>::quiet_NaN();
+  for (const Peak& p : peaks) {
+    // D_p >= threshold * D_max  <=>  threshold * r_p <= r_min
+    if (threshold * p.denominator <= smallest && !(p.phase >= first)) first = p.phase;
+  }
+  return first;
+}
+
+double PisarenkoFirstReturnPhase(const PisarenkoEstimate& estimate, double threshold,
+                                 int* index) {
+  if (index != nullptr) *index = -1;
+  double largest = 0.0;
+  for (int l = 0; l < estimate.count; ++l) largest = std::max(largest, estimate.weight[l]);
+  for (int l = 0; l < estimate.count; ++l) {  // ascending phase
+    if (estimate.weight[l] > 0.0 && estimate.weight[l] >= threshold * largest) {
+      if (index != nullptr) *index = l;
+      return estimate.phase[l];
+    }
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace transient

@@ -1,0 +1,112 @@
+#include "transient/reconstruct/range.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <vector>
+
+#include "test_measures.h"
+#include "transient/reconstruct/biasing.h"
+#include "transient/reconstruct/levinson.h"
+#include "transient/reconstruct/mese.h"
+
+namespace transient {
+namespace {
+
+constexpr double kFrequency = 23e6;  // thesis §8.5
+
+std::vector<Complex> Solve(std::vector<Complex> c, double epsilon) {
+  Bias(c, epsilon, BiasMode::kRaiseZeroth);
+  std::vector<Complex> q(c.size());
+  EXPECT_TRUE(Levinson(c, q));
+  return q;
+}
+
+TEST(Range, PhaseAndRangeConvert) {
+  // One full period of phase is half the modulation wavelength: c / (2 f).
+  EXPECT_NEAR(PhaseToRange(kTwoPi, kFrequency), kSpeedOfLight / (2 * kFrequency), 1e-9);
+  EXPECT_NEAR(RangeToPhase(PhaseToRange(1.234, kFrequency), kFrequency), 1.234, 1e-15);
+}
+
+TEST(Range, SparseResponsesGiveTheFirstReturn) {
+  std::mt19937_64 rng(19);
+  for (int m : {2, 3, 4, 8}) {
+    for (int trial = 0; trial < 20; ++trial) {
+      // m/2 returns at least 0.6 rad apart, the first the strongest or not.
+      const auto truth = testing::RandomSparseMeasure(std::max(1, m / 2), 0.6, 0.0, rng);
+      const std::vector<Complex> q = Solve(truth.Moments(m), 4e-3);
+      double first = kTwoPi;
+      for (size_t l = 0; l < truth.phase.size(); ++l) {
+        // The threshold is relative to the highest peak; our weights are within 5x.
+        first = std::min(first, truth.phase[l]);
+      }
+      const double phase = MeseFirstPeakPhase(q, 0.05, 512);
+      // Biasing with eps = 4e-3 pulls peaks slightly towards each other; 1 mrad is 1 mm here.
+      EXPECT_NEAR(phase, first, 2e-3 * 8 / m) << "m=" << m << " trial=" << trial;
+    }
+  }
+}
+
+TEST(Range, SinglePeakIsFoundToSubBinAccuracy) {
+  testing::SparseMeasure truth;
+  truth.phase = {2.0 + 0.3 * kTwoPi / 64};  // between two of 64 grid bins
+  truth.weight = {1.0};
+  const std::vector<Complex> q = Solve(truth.Moments(3), 4e-3);
+  // A single return with a uniform bias is symmetric: the peak is exactly at the return.
+  EXPECT_NEAR(MeseFirstPeakPhase(q, 0.1, 64), truth.phase[0], 1e-9);
+}
+
+TEST(Range, ExponentiallyModifiedGaussianResponseGivesTheFirstReturn) {
+  // A sharp direct return and a later, broad indirect one (a diffuse corner's pixel).
+  for (int m : {3, 4, 8}) {
+    const double onset = 1.2;
+    auto density = [&](double phi) {
+      return testing::ExponentiallyModifiedGaussian(phi, onset, 0.03, 20.0) +
+             0.5 * testing::ExponentiallyModifiedGaussian(phi, 2.6, 0.3, 2.0);
+    };
+    const std::vector<Complex> c = testing::DensityMoments(density, m, 1 << 14);
+    // The mode of the first EMG: it lies just after the onset.
+    double mode = onset, best = 0.0;
+    for (int k = 0; k < 20000; ++k) {
+      const double phi = onset - 0.2 + 0.4 * k / 20000;
+      const double v = testing::ExponentiallyModifiedGaussian(phi, onset, 0.03, 20.0);
+      if (v > best) best = v, mode = phi;
+    }
+    const double phase = MeseFirstPeakPhase(Solve(c, 4e-3), 0.1, 512);
+    // m = 3 resolves the first return to within a few degrees; more moments, less bias.
+    const double tolerance = m == 3 ? 0.1 : 0.05;
+    EXPECT_NEAR(phase, mode, tolerance) << "m = " << m;
+    EXPECT_LT(phase, 2.0) << "the indirect return must not be taken for the first";
+  }
+}
+
+TEST(Range, FlatDensityHasNoPeak) {
+  const std::vector<Complex> q = Solve({1.0, 0.0, 0.0, 0.0}, 4e-3);
+  EXPECT_TRUE(std::isnan(MeseFirstPeakPhase(q, 0.1, 128)));
+}
+
+TEST(Range, ThresholdSkipsWeakEarlyPeaks) {
+  testing::SparseMeasure truth;
+  truth.phase = {1.0, 3.0};
+  truth.weight = {0.05, 1.0};
+  const std::vector<Complex> q = Solve(truth.Moments(6), 4e-3);
+  EXPECT_NEAR(MeseFirstPeakPhase(q, 0.0, 512), 1.0, 0.01);
+  EXPECT_NEAR(MeseFirstPeakPhase(q, 0.9, 512), 3.0, 0.01);
+}
+
+TEST(Range, PisarenkoFirstReturnAboveThreshold) {
+  PisarenkoEstimate estimate;
+  estimate.count = 3;
+  estimate.phase = {0.5, 1.0, 2.0};
+  estimate.weight = {0.01, 1.0, 0.5};
+  int index = -2;
+  EXPECT_EQ(PisarenkoFirstReturnPhase(estimate, 0.1, &index), 1.0);
+  EXPECT_EQ(index, 1);
+  EXPECT_EQ(PisarenkoFirstReturnPhase(estimate, 0.0), 0.5);
+  estimate.count = 0;
+  EXPECT_TRUE(std::isnan(PisarenkoFirstReturnPhase(estimate, 0.1, &index)));
+  EXPECT_EQ(index, -1);
+}
+
+}  // namespace
+}  // namespace transient
