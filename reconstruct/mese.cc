@@ -34,9 +34,14 @@ void MeseDenominatorSeries(std::span<const Complex> q, std::span<Complex> a) {
 
 SeriesValue EvaluateDenominatorSeries(std::span<const Complex> a, double phase) {
   SeriesValue result{a[0].real(), 0.0, 0.0};
+  // exp(i k phi) by repeated multiplication: one sin/cos per call; m <= 16 products keep the
+  // rounding at a few ulps.
+  const Complex unit = std::polar(1.0, phase);
+  Complex power = 1.0;
   for (size_t k = 1; k < a.size(); ++k) {
     const double kd = static_cast<double>(k);
-    const Complex term = a[k] * std::polar(1.0, kd * phase);
+    power *= unit;
+    const Complex term = a[k] * power;
     result.value += 2.0 * term.real();
     result.first -= 2.0 * kd * term.imag();
     result.second -= 2.0 * kd * kd * term.real();

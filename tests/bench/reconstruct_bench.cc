@@ -1,0 +1,85 @@
+// Throughput of the scalar reference kernels, the baseline that optimized kernels are
+// measured against. Run: make bench (or build/tests/bench/transient_bench).
+#include <benchmark/benchmark.h>
+
+#include <random>
+#include <vector>
+
+#include "transient/reconstruct/levinson.h"
+#include "transient/reconstruct/reconstructor.h"
+
+namespace transient {
+namespace {
+
+// A frame of the thesis's sensor size (pmd 19k, 163 x 120) whose pixels hold three returns
+// and a small uniform component, like the mirrors scene of thesis fig. 8.7.
+MomentImage MakeFrame(int m) {
+  const ImageGeometry geometry{163, 120};
+  MomentImage image(geometry, m);
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<double> phase(0.2, 5.5), weight(0.2, 1.0);
+  for (int64_t p = 0; p < geometry.pixel_count(); ++p) {
+    const std::vector<double> phases = {phase(rng), phase(rng), phase(rng)};
+    const std::vector<double> weights = {weight(rng), weight(rng), weight(rng)};
+    std::vector<Complex> c(m + 1);
+    DiracMoments(phases, weights, c);
+    c[0] += 0.05;
+    for (int j = 0; j <= m; ++j) {
+      image.real_plane(j)[p] = static_cast<float>(c[j].real());
+      image.imag_plane(j)[p] = static_cast<float>(c[j].imag());
+    }
+  }
+  return image;
+}
+
+void BM_Solve(benchmark::State& state) {
+  const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
+  for (auto _ : state) benchmark::DoNotOptimize(Solve(image, SolveOptions{}));
+  state.SetItemsProcessed(state.iterations() * image.geometry.pixel_count());
+  state.counters["pixels/s"] = benchmark::Counter(
+      static_cast<double>(state.iterations() * image.geometry.pixel_count()),
+      benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_Solve)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
+
+void BM_DensitySlices(benchmark::State& state) {
+  const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
+  const SolvedImage solved = Solve(image, SolveOptions{});
+  const auto phases = UniformPhases(256);
+  std::vector<float> out(phases.size() * image.geometry.pixel_count());
+  for (auto _ : state) {
+    DensitySlices(solved, phases, out);
+    benchmark::ClobberMemory();
+  }
+  state.counters["evaluations/s"] = benchmark::Counter(
+      static_cast<double>(state.iterations() * out.size()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_DensitySlices)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
+
+void BM_MeseRange(benchmark::State& state) {
+  const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
+  const SolvedImage solved = Solve(image, SolveOptions{});
+  const int64_t pixels = image.geometry.pixel_count();
+  std::vector<float> range(pixels);
+  std::vector<uint8_t> flags(pixels);
+  for (auto _ : state) {
+    MeseRange(solved, RangeOptions{}, range, flags);
+    benchmark::ClobberMemory();
+  }
+  state.counters["pixels/s"] = benchmark::Counter(
+      static_cast<double>(state.iterations() * pixels), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_MeseRange)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
+
+void BM_Pisarenko(benchmark::State& state) {
+  const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
+  const SolvedImage solved = Solve(image, SolveOptions{});
+  for (auto _ : state) benchmark::DoNotOptimize(EstimatePisarenko(solved));
+  state.counters["pixels/s"] = benchmark::Counter(
+      static_cast<double>(state.iterations() * image.geometry.pixel_count()),
+      benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_Pisarenko)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace transient
