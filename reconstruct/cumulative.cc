@@ -3,16 +3,43 @@
 
 #include <cmath>
 
+#include "transient/reconstruct/levinson.h"
 #include "transient/reconstruct/mese.h"
 #include "transient/reconstruct/polynomial.h"
+#include "transient/reconstruct/quadrature.h"
 
 namespace transient {
+namespace {
+
+// Roots closer than this (relative) make the residues cancel catastrophically: a pair 1e-5
+// apart already costs 14 % of c_0.
+constexpr double kMinRootSeparation = 1e-3;
+// The linear term must integrate to c_0 (from inverse Levinson) to this relative accuracy.
+constexpr double kZerothMomentCheck = 1e-9;
+// Absolute accuracy of the quadrature fallback, relative to c_0.
+constexpr double kQuadratureTolerance = 1e-10;
+
+}  // namespace
 
 bool MeseCumulative::Init(std::span<const Complex> q) {
   const double q0 = q[0].real();
+  if (!(q0 > 0.0) || !std::isfinite(q0)) return false;
+  size_ = static_cast<int>(q.size());
+  for (int j = 0; j < size_; ++j) q_[j] = q[j];
+  closed_form_ = false;
+  std::array<Complex, kMaxMoments> c;
+  InverseLevinson(q, std::span<Complex>(c.data(), size_));
+  c0_ = c[0].real();
+
   std::array<Complex, kMaxOrder> roots;
   degree_ = MeseRoots(q, roots);
   const int n = degree_;
+  for (int l = 0; l < n; ++l) {
+    for (int k = 0; k < l; ++k) {
+      const double scale = std::max(std::abs(roots[l]), std::abs(roots[k]));
+      if (!(std::abs(roots[l] - roots[k]) >= kMinRootSeparation * scale)) return true;
+    }
+  }
   // D(x) = q_0 x^n / (2 pi p(x) s(x)) on |x| = 1, with p(x) = sum_j conj(q_j) x^j (roots x_l
   // outside the circle) and s(x) = sum_j q_j x^{n-j} = x^n conj(p(1/conj x)) (roots
   // y_l = 1/conj(x_l) inside). Residues of the simple poles come from the derivatives.
@@ -27,35 +54,38 @@ bool MeseCumulative::Init(std::span<const Complex> q) {
     p_derivative[j - 1] = static_cast<double>(j) * p[j];
     s_derivative[j - 1] = static_cast<double>(j) * s[j];
   }
-  const std::span<const Complex> dp_span(p_derivative.data(), n), ds_span(s_derivative.data(), n);
+  const std::span<const Complex> dp_span(p_derivative.data(), n);
+  const std::span<const Complex> ds_span(s_derivative.data(), n);
   const double factor = q0 / kTwoPi;
+  const Complex i(0.0, 1.0);
   Complex slope = 0.0;
   for (int l = 0; l < n; ++l) {
     const Complex x = roots[l];
     const Complex y = 1.0 / std::conj(x);
-    const Complex outer_denominator = EvaluatePolynomial(dp_span, x) * EvaluatePolynomial(s_span, x);
-    const Complex inner_denominator = EvaluatePolynomial(p_span, y) * EvaluatePolynomial(ds_span, y);
-    if (std::abs(outer_denominator) == 0.0 || std::abs(inner_denominator) == 0.0) return false;
-    const Complex outer_residue = factor * std::pow(x, n) / outer_denominator;
-    const Complex inner_residue = factor * std::pow(y, n) / inner_denominator;
+    const Complex outer_residue =
+        factor * std::pow(x, n) / (EvaluatePolynomial(dp_span, x) * EvaluatePolynomial(s_span, x));
+    const Complex inner_residue =
+        factor * std::pow(y, n) / (EvaluatePolynomial(p_span, y) * EvaluatePolynomial(ds_span, y));
     // int_0^phi dt / (e^{it} - x) = -(1/x) (phi + i Log(1 - e^{i phi}/x)) + const, |x| > 1;
     // int_0^phi dt / (e^{it} - y) = -(i/y) Log(1 - y e^{-i phi}) + const,          |y| < 1.
     outer_pole_[l] = x;
     outer_coefficient_[l] = -outer_residue / x;
     inner_pole_[l] = y;
-    inner_coefficient_[l] = -Complex(0.0, 1.0) * inner_residue / y;
+    inner_coefficient_[l] = -i * inner_residue / y;
+    if (!std::isfinite(std::abs(outer_coefficient_[l])) ||
+        !std::isfinite(std::abs(inner_coefficient_[l]))) {
+      return true;
+    }
     slope += outer_coefficient_[l];
   }
   // The linear term is D's mean c_0 / (2 pi). With degree 0, D = 1 / (2 pi q_0) is constant.
   slope_ = (n == 0) ? 1.0 / (kTwoPi * q0) : slope.real();
-  for (int l = 0; l < n; ++l) {
-    if (!std::isfinite(outer_coefficient_[l].real()) || !std::isfinite(inner_coefficient_[l].real()))
-      return false;
-  }
-  return std::isfinite(slope_);
+  closed_form_ = std::abs(slope_ * kTwoPi - c0_) <= kZerothMomentCheck * c0_;
+  return true;
 }
 
 double MeseCumulative::operator()(double phase) const {
+  if (!closed_form_) return Quadrature(phase);
   const Complex unit = std::polar(1.0, phase);
   Complex sum = slope_ * phase;
   const Complex i(0.0, 1.0);
@@ -66,6 +96,12 @@ double MeseCumulative::operator()(double phase) const {
     sum += inner_coefficient_[l] * (std::log(1.0 - y * std::conj(unit)) - std::log(1.0 - y));
   }
   return sum.real();
+}
+
+double MeseCumulative::Quadrature(double phase) const {
+  const std::span<const Complex> q(q_.data(), size_);
+  return IntegrateAdaptive([&](double phi) { return MeseDensity(q, phi); }, 0.0, phase,
+                           kQuadratureTolerance * c0_);
 }
 
 }  // namespace transient

@@ -20,6 +20,59 @@ constexpr double kUnitCircleTolerance = 1e-3;
 // cases (a spurious root on the circle gets a weight of the order of machine epsilon).
 constexpr double kNegligibleWeight = 1e-10;
 
+using Residual = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMaxMoments, 1>;
+using Weights = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxOrder, 1>;
+
+// Real and imaginary parts of sum_l w_l exp(i j phi_l) - b_j, j = 0..m.
+Residual MomentResidual(const Residual& b, int n, const std::array<double, kMaxOrder>& phases,
+                        const Weights& w) {
+  Residual residual = -b;
+  for (int j = 0; j < b.size() / 2; ++j) {
+    for (int l = 0; l < n; ++l) {
+      const Complex x = w(l) * std::polar(1.0, j * phases[l]);
+      residual(2 * j) += x.real();
+      residual(2 * j + 1) += x.imag();
+    }
+  }
+  return residual;
+}
+
+// The eigenvector's roots are only as accurate as u * ||C|| / (gap to the next eigenvalue);
+// for close returns at large m that is ~1e-6. A few Gauss-Newton steps on the moment
+// equations themselves (phases and weights together) bring them back to rounding level.
+void PolishReturns(const Residual& b, int n, std::array<double, kMaxOrder>& phases, Weights& w) {
+  constexpr int kSteps = 3;
+  const int rows = static_cast<int>(b.size());
+  Residual residual = MomentResidual(b, n, phases, w);
+  for (int step = 0; step < kSteps; ++step) {
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 2 * kMaxMoments, 2 * kMaxOrder>
+        jacobian(rows, 2 * n);
+    for (int j = 0; j < rows / 2; ++j) {
+      for (int l = 0; l < n; ++l) {
+        const Complex x = std::polar(1.0, j * phases[l]);
+        const Complex dx = Complex(0.0, j * w(l)) * x;  // d/dphi_l of w_l exp(i j phi_l)
+        jacobian(2 * j, l) = x.real();
+        jacobian(2 * j + 1, l) = x.imag();
+        jacobian(2 * j, n + l) = dx.real();
+        jacobian(2 * j + 1, n + l) = dx.imag();
+      }
+    }
+    const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMaxOrder, 1> delta =
+        jacobian.colPivHouseholderQr().solve(-residual);
+    std::array<double, kMaxOrder> new_phases = phases;
+    Weights new_w = w;
+    for (int l = 0; l < n; ++l) {
+      new_w(l) += delta(l);
+      new_phases[l] = WrapPhase(phases[l] + delta(n + l));
+    }
+    const Residual new_residual = MomentResidual(b, n, new_phases, new_w);
+    if (!(new_residual.squaredNorm() < residual.squaredNorm())) return;
+    phases = new_phases;
+    w = new_w;
+    residual = new_residual;
+  }
+}
+
 }  // namespace
 
 bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate) {
@@ -55,7 +108,7 @@ bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate) {
   // (thesis alg. 8.2, step 3), solved in the least-squares sense over all m+1 equations.
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 2 * kMaxMoments, kMaxOrder> a(
       2 * size, n);
-  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMaxMoments, 1> b(2 * size);
+  Residual b(2 * size);
   for (int j = 0; j <= m; ++j) {
     const Complex target = (j == 0) ? Complex(c0 - lambda_min) : c[j];
     b(2 * j) = target.real();
@@ -66,8 +119,8 @@ bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate) {
       a(2 * j + 1, l) = x.imag();
     }
   }
-  const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxOrder, 1> w =
-      a.colPivHouseholderQr().solve(b);
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxOrder, 1> w = a.colPivHouseholderQr().solve(b);
+  PolishReturns(b, n, phases, w);
 
   std::array<int, kMaxOrder> order;
   std::iota(order.begin(), order.begin() + n, 0);

@@ -2,7 +2,6 @@
 #include "transient/reconstruct/range.h"
 
 #include <algorithm>
-#include <array>
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -16,26 +15,22 @@ namespace {
 constexpr int kNewtonSteps = 8;
 constexpr double kPhaseTolerance = 1e-13;  // radians; Newton stops below this step
 
-// Refines the minimum of the denominator series near grid phase `center` (spacing h): Newton on
-// the derivative while the curvature is positive and the iterate stays within one bin, else the
-// vertex of the parabola through the three grid values.
-double RefineMinimum(std::span<const Complex> a, double center, double h, double left,
+// Refines the minimum of the denominator near grid phase `center` (spacing h): Newton on its
+// derivative while the curvature is positive and the iterate stays within one bin; otherwise
+// the vertex of the parabola through the three grid values.
+double RefineMinimum(std::span<const Complex> q, double center, double h, double left,
                      double middle, double right) {
   double phase = center;
-  bool converged = false;
   for (int step = 0; step < kNewtonSteps; ++step) {
-    const SeriesValue s = EvaluateDenominatorSeries(a, phase);
+    const SeriesValue s = EvaluateDenominator(q, phase);
     if (!(s.second > 0.0)) break;
     const double delta = -s.first / s.second;
     phase += delta;
-    if (std::abs(phase - center) > h) break;
-    if (std::abs(delta) < kPhaseTolerance) {
-      converged = true;
-      break;
-    }
+    if (!(std::abs(phase - center) <= h)) break;
+    if (std::abs(delta) < kPhaseTolerance) return phase;
   }
-  if (converged || (std::abs(phase - center) <= h &&
-                    EvaluateDenominatorSeries(a, phase).value <= middle)) {
+  if (phase != center && std::abs(phase - center) <= h &&
+      EvaluateDenominator(q, phase).value <= middle) {
     return phase;
   }
   const double curvature = left - 2.0 * middle + right;
@@ -45,15 +40,17 @@ double RefineMinimum(std::span<const Complex> a, double center, double h, double
 
 }  // namespace
 
+double OrderingPhase(double phase) {
+  const double wrapped = WrapPhase(phase);
+  return wrapped >= kTwoPi - kWrapGuard ? wrapped - kTwoPi : wrapped;
+}
+
 double MeseFirstPeakPhase(std::span<const Complex> q, double threshold, int search_bins) {
   assert(search_bins >= 3);
-  std::array<Complex, kMaxMoments> a_storage;
-  const std::span<Complex> a(a_storage.data(), q.size());
-  MeseDenominatorSeries(q, a);
-  // Peaks of D are minima of the (positive) denominator series.
+  // Peaks of D are minima of the positive denominator |p|^2.
   std::vector<double> r(search_bins);
   const double h = kTwoPi / search_bins;
-  for (int n = 0; n < search_bins; ++n) r[n] = EvaluateDenominatorSeries(a, n * h).value;
+  for (int n = 0; n < search_bins; ++n) r[n] = EvaluateDenominator(q, n * h).value;
 
   struct Peak {
     double phase, denominator;
@@ -63,8 +60,10 @@ double MeseFirstPeakPhase(std::span<const Complex> q, double threshold, int sear
     const double left = r[(n + search_bins - 1) % search_bins];
     const double right = r[(n + 1) % search_bins];
     if (!(r[n] < left && r[n] <= right)) continue;
-    const double phase = RefineMinimum(a, n * h, h, left, r[n], right);
-    peaks.push_back({WrapPhase(phase), EvaluateDenominatorSeries(a, phase).value});
+    const double phase = RefineMinimum(q, n * h, h, left, r[n], right);
+    const double denominator = EvaluateDenominator(q, phase).value;
+    if (!(denominator > 0.0)) continue;  // only underflow can get here: D would be infinite
+    peaks.push_back({OrderingPhase(phase), denominator});
   }
   if (peaks.empty()) return std::numeric_limits<double>::quiet_NaN();
   // D = q_0 / (2 pi r): the highest density has the smallest denominator.
@@ -83,13 +82,16 @@ double PisarenkoFirstReturnPhase(const PisarenkoEstimate& estimate, double thres
   if (index != nullptr) *index = -1;
   double largest = 0.0;
   for (int l = 0; l < estimate.count; ++l) largest = std::max(largest, estimate.weight[l]);
-  for (int l = 0; l < estimate.count; ++l) {  // ascending phase
-    if (estimate.weight[l] > 0.0 && estimate.weight[l] >= threshold * largest) {
+  double first = std::numeric_limits<double>::quiet_NaN();
+  for (int l = 0; l < estimate.count; ++l) {
+    if (!(estimate.weight[l] > 0.0 && estimate.weight[l] >= threshold * largest)) continue;
+    const double phase = OrderingPhase(estimate.phase[l]);
+    if (!(phase >= first)) {
+      first = phase;
       if (index != nullptr) *index = l;
-      return estimate.phase[l];
     }
   }
-  return std::numeric_limits<double>::quiet_NaN();
+  return first;
 }
 
 }  // namespace transient

@@ -30,9 +30,12 @@ bool AllFinite(std::span<const Complex> c) {
 }  // namespace
 
 absl::Status SolveOptions::Validate() const {
-  if (!(bias_epsilon > 0.0 && bias_epsilon < 1.0)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "bias_epsilon = ", bias_epsilon, ". Violated constraint: 0 < bias_epsilon < 1"));
+  // Below ~1e-6 the biased Toeplitz matrix is too close to singular for double precision:
+  // at 1e-10 biasing itself cannot reach positive definiteness.
+  if (!(bias_epsilon >= kMinBiasEpsilon && bias_epsilon < 1.0)) {
+    return absl::InvalidArgumentError(absl::StrCat("bias_epsilon = ", bias_epsilon,
+                                                   ". Violated constraint: ", kMinBiasEpsilon,
+                                                   " <= bias_epsilon < 1"));
   }
   return absl::OkStatus();
 }

@@ -114,6 +114,32 @@ TEST(Bounds, AreSharpCanonicalMeasuresTouchThem) {
   }
 }
 
+TEST(Bounds, PinchOntoANearlySparseTruth) {
+  // An m-sparse measure is the only one with its moments (thesis prop. 2.13), so as its
+  // uniform part vanishes the bounds must close on its smoothed density.
+  std::mt19937_64 rng(27);
+  const auto phases = Phases();
+  for (int m : {2, 4, 8}) {
+    auto truth = testing::RandomSparseMeasure(m, 0.3, 0.0, rng);
+    double previous_width = 1e300;
+    for (double uniform : {1e-2, 1e-4, 1e-6}) {
+      truth.uniform = uniform;
+      std::vector<double> lower(kPhases), upper(kPhases);
+      ASSERT_TRUE(PoissonBounds(truth.Moments(m), 0.5, phases, lower, upper));
+      double width = 0.0;
+      for (int n = 0; n < kPhases; ++n) {
+        const double value = truth.PoissonSmoothed(0.5, phases[n]);
+        EXPECT_GE(value, lower[n] - 1e-7 * value);
+        EXPECT_LE(value, upper[n] + 1e-7 * value);
+        width = std::max(width, (upper[n] - lower[n]) / value);
+      }
+      EXPECT_LT(width, 0.5 * previous_width) << "m=" << m << " uniform=" << uniform;
+      previous_width = width;
+    }
+    EXPECT_LT(previous_width, 1e-3) << "m=" << m;
+  }
+}
+
 TEST(Bounds, ReduceToThePoissonKernelRangeForASingleMoment) {
   // With only c_0 known, the smoothed density lies between the kernel's extremes.
   const std::vector<Complex> c = {2.0, 0.0};

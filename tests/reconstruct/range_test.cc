@@ -80,6 +80,39 @@ TEST(Range, ExponentiallyModifiedGaussianResponseGivesTheFirstReturn) {
   }
 }
 
+TEST(Range, ReturnAtTheCameraIsFirstOnEitherSideOfTheWrap) {
+  // A strong return at phi = 0 lands a hair below 2*pi after biasing; it must still be first.
+  for (double at : {1e-6, 0.0, kTwoPi - 1e-6}) {
+    testing::SparseMeasure truth;
+    truth.phase = {at, 3.0};
+    truth.weight = {1.0, 0.8};
+    const std::vector<Complex> q = Solve(truth.Moments(8), 4e-3);
+    const double phase = MeseFirstPeakPhase(q, 0.1, 512);
+    EXPECT_NEAR(phase, at > std::numbers::pi ? at - kTwoPi : at, 1e-3) << "return at " << at;
+    PisarenkoEstimate estimate;
+    estimate.count = 2;
+    estimate.phase = {2.0, kTwoPi - 1e-7};  // sorted in [0, 2*pi)
+    estimate.weight = {0.5, 1.0};
+    EXPECT_NEAR(PisarenkoFirstReturnPhase(estimate, 0.1), -1e-7, 1e-12);
+  }
+}
+
+TEST(Range, SharpPeaksOfBarelyBiasedPixelsAreFound) {
+  // With eps = 1e-6 the denominator's minimum is ~1e-12 of its mean: the expanded cosine
+  // series cancels to noise there, direct evaluation of |p|^2 does not.
+  std::mt19937_64 rng(26);
+  for (int m : {3, 8, 16}) {
+    for (int trial = 0; trial < 50; ++trial) {
+      std::uniform_real_distribution<double> phase(0.1, 6.0);
+      testing::SparseMeasure truth;
+      truth.phase = {phase(rng)};
+      truth.weight = {1.0};
+      const std::vector<Complex> q = Solve(truth.Moments(m), 1e-6);
+      EXPECT_NEAR(MeseFirstPeakPhase(q, 0.1, 512), truth.phase[0], 1e-8) << "m = " << m;
+    }
+  }
+}
+
 TEST(Range, FlatDensityHasNoPeak) {
   const std::vector<Complex> q = Solve({1.0, 0.0, 0.0, 0.0}, 4e-3);
   EXPECT_TRUE(std::isnan(MeseFirstPeakPhase(q, 0.1, 128)));

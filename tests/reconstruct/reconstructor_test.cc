@@ -106,8 +106,9 @@ TEST(Reconstructor, EstimatesTheZerothMomentWhenNotMeasured) {
   options.zeroth = ZerothMoment::kEstimate;
   const SolvedImage solved = Solve(image, options);
   ASSERT_TRUE(solved.valid(0));
-  // Two returns plus a uniform part of 0.05: the estimate drops the uniform part.
-  EXPECT_NEAR(solved.c0(0), measured - 0.05, 0.05);
+  // Two returns plus a uniform part of 0.05 at m = 3: lambda_min of the zero-diagonal matrix
+  // is minus the returns' mass, so the estimate is that mass over (1 - eps).
+  EXPECT_NEAR(solved.c0(0), (measured - 0.05) / (1.0 - options.bias_epsilon), 1e-6);
   EXPECT_EQ(solved.flags[0] & kFlagBiased, 0);
 }
 
@@ -172,7 +173,13 @@ TEST(Reconstructor, NoReturnIsFlaggedForAFlatResponse) {
 TEST(Reconstructor, OptionsAreValidatedWithTheViolatedConstraint) {
   SolveOptions solve;
   solve.bias_epsilon = 0.0;
-  EXPECT_THAT(solve.Validate().message(), HasSubstr("0 < bias_epsilon < 1"));
+  EXPECT_THAT(solve.Validate().message(), HasSubstr("1e-06 <= bias_epsilon < 1"));
+  solve.bias_epsilon = 1e-9;  // too close to singular for double precision
+  EXPECT_EQ(solve.Validate().code(), absl::StatusCode::kInvalidArgument);
+  solve.bias_epsilon = 1.0;
+  EXPECT_FALSE(solve.Validate().ok());
+  solve.bias_epsilon = 1e-6;
+  EXPECT_TRUE(solve.Validate().ok());
   RangeOptions range;
   range.threshold = 1.5;
   EXPECT_THAT(range.Validate().message(), HasSubstr("threshold"));

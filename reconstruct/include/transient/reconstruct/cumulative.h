@@ -12,16 +12,28 @@ namespace transient {
 // denominator polynomial (outside the unit circle) and their mirror images 1/conj(x_l)
 // (inside). Each term integrates to a logarithm; we write it as Log(1 - z) with |z| < 1, the
 // principal branch, which is continuous on all of [0, 2*pi] — no branch tracking needed.
-// Assumes simple roots (true unless two poles coincide exactly; then Init returns false).
+//
+// The partial fractions assume simple poles. When two roots (nearly) coincide the residues
+// blow up and cancel badly, so Init checks the root separation and that the linear term
+// integrates to c_0; if either fails, the cumulative is computed by adaptive Simpson
+// quadrature of D instead (closed_form() is false) — slower, never wrong.
 class MeseCumulative {
  public:
-  // q from Levinson(). Returns false when the partial fractions are degenerate.
+  // q from Levinson(). Returns false only for an invalid q (q_0 <= 0 or not finite).
   [[nodiscard]] bool Init(std::span<const Complex> q);
 
   // F_D([0, phi]) for phi in [0, 2*pi]; F(0) = 0 and F(2*pi) = c_0.
   double operator()(double phase) const;
 
+  bool closed_form() const { return closed_form_; }
+
  private:
+  double Quadrature(double phase) const;
+
+  int size_ = 0;  // m + 1
+  double c0_ = 0.0;  // from inverse Levinson
+  std::array<Complex, kMaxMoments> q_{};
+  bool closed_form_ = false;
   int degree_ = 0;
   // Per root pair: coefficient of the Log term for the outer pole (z = exp(i*phi)/x) and the
   // inner pole (z = y*exp(-i*phi)), and the poles themselves.

@@ -20,7 +20,8 @@ struct PisarenkoEstimate {
 
 // Decomposes c into lambda_min * (uniform measure) + sum_l w_l delta_{phi_l}: the eigenvector
 // of lambda_min gives the polynomial whose unit-circle roots are the phases, and a Vandermonde
-// least-squares solve against (c_0 - lambda_min, c_1, ..., c_m) gives the weights.
+// least-squares solve against (c_0 - lambda_min, c_1, ..., c_m) gives the weights; a few
+// Gauss-Newton steps on those moment equations then polish phases and weights together.
 // Returns false for non-finite input or c_0 <= 0. Exact for m-sparse measures
 // (lambda_min = 0). Returns with weight <= 0 (rounding in degenerate cases) are dropped.
 [[nodiscard]] bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate);

@@ -9,13 +9,21 @@
 
 namespace transient {
 
-// Phase in [0, 2*pi) of the first local maximum of D(phi), scanning from phi = 0, whose
-// density is at least `threshold` times the highest density. Peaks are found on a grid of
+// A return at the camera (phi = 0) is measured, with noise or bias, on either side of the
+// wrap: phases within kWrapGuard below 2*pi count as slightly negative when returns are
+// ordered, so such a return is the first one, not the last. 2*pi/1024 is 6.4 mm at 23 MHz.
+inline constexpr double kWrapGuard = kTwoPi / 1024;
+
+// The phase used to order returns: wrapped into [-kWrapGuard, 2*pi - kWrapGuard).
+double OrderingPhase(double phase);
+
+// Phase of the first local maximum of D(phi), in [-kWrapGuard, 2*pi - kWrapGuard), whose
+// density is at least `threshold` times the highest peak's. Peaks are found on a grid of
 // `search_bins` phases and refined by Newton's method on the derivative of the denominator
-// series (sub-bin accuracy). Returns NaN when there is no local maximum (a flat density).
+// (sub-bin accuracy). Returns NaN when there is no local maximum (a flat density).
 double MeseFirstPeakPhase(std::span<const Complex> q, double threshold, int search_bins);
 
-// Phase of the first return (ascending phase) with weight >= threshold * largest weight;
+// Phase (as OrderingPhase) of the first return with weight >= threshold * largest weight;
 // NaN when there is no return. Its index is written to `index` when non-null (-1 if none).
 double PisarenkoFirstReturnPhase(const PisarenkoEstimate& estimate, double threshold,
                                  int* index = nullptr);

@@ -30,8 +30,10 @@ enum PixelFlag : uint8_t {
   kFlagNoReturn = 1 << 2,      // no peak / return above the relative threshold
 };
 
+inline constexpr double kMinBiasEpsilon = 1e-6;
+
 struct SolveOptions {
-  double bias_epsilon = 4e-3;  // thesis §8.5: lambda_min >= 4e-3 * c_0
+  double bias_epsilon = 4e-3;  // thesis §8.5: lambda_min >= 4e-3 * c_0; >= kMinBiasEpsilon
   BiasMode bias_mode = BiasMode::kRaiseZeroth;
   ZerothMoment zeroth = ZerothMoment::kMeasured;
 
