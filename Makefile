@@ -10,7 +10,7 @@ deps:
 	bash tools/install_deps.sh
 
 build: deps
-	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
+	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_TESTS=OFF $(CMAKE_FLAGS)
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
 # All tests: the Release build, then the same suite under AddressSanitizer + UBSan.
@@ -29,12 +29,12 @@ test-sanitize:
 # Until the daemon exists: reconstruct the example moment file and say where the result is.
 demo: build
 	mkdir -p out
-	$(BUILD_DIR)/tools/transient reconstruct tests/data/example_moments.h5 out/example_reconstruction.h5
+	$(BUILD_DIR)/tools/transient/transient reconstruct tests/data/example_moments.h5 out/example_reconstruction.h5
 	@echo "demo: wrote out/example_reconstruction.h5 (open it with h5py, MATLAB h5read or h5dump)"
 
 bench: deps
 	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_BENCHMARKS=ON $(CMAKE_FLAGS)
-	cmake --build $(BUILD_DIR) -j $(JOBS)
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target transient_bench
 	$(BUILD_DIR)/tests/bench/transient_bench
 
 clean:

@@ -70,7 +70,7 @@ bool MeseCumulative::Init(std::span<const Complex> q) {
     // int_0^phi dt / (e^{it} - y) = -(i/y) Log(1 - y e^{-i phi}) + const,          |y| < 1.
     outer_pole_[l] = x;
     outer_coefficient_[l] = -outer_residue / x;
-    inner_pole_[l] = y;
+    log_at_zero_[l] = std::log(1.0 - 1.0 / x);
     inner_coefficient_[l] = -i * inner_residue / y;
     if (!std::isfinite(std::abs(outer_coefficient_[l])) ||
         !std::isfinite(std::abs(inner_coefficient_[l]))) {
@@ -90,10 +90,11 @@ double MeseCumulative::operator()(double phase) const {
   Complex sum = slope_ * phase;
   const Complex i(0.0, 1.0);
   for (int l = 0; l < degree_; ++l) {
+    // With y = 1/conj(x): 1 - y conj(u) = conj(1 - u/x), and both lie in the right half-plane
+    // where the principal Log commutes with conjugation, so one log serves both poles.
     const Complex x = outer_pole_[l];
-    const Complex y = inner_pole_[l];
-    sum += outer_coefficient_[l] * i * (std::log(1.0 - unit / x) - std::log(1.0 - 1.0 / x));
-    sum += inner_coefficient_[l] * (std::log(1.0 - y * std::conj(unit)) - std::log(1.0 - y));
+    const Complex log_outer = std::log(1.0 - unit / x) - log_at_zero_[l];
+    sum += outer_coefficient_[l] * i * log_outer + inner_coefficient_[l] * std::conj(log_outer);
   }
   return sum.real();
 }

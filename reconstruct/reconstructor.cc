@@ -229,7 +229,11 @@ void PisarenkoRange(const PisarenkoImage& pisarenko, const RangeOptions& options
   PisarenkoEstimate estimate;
   for (int64_t p = 0; p < pixels; ++p) {
     range_m[p] = kNaNf;
-    if (std::isnan(pisarenko.uniform[p])) continue;  // invalid pixel
+    if (std::isnan(pisarenko.uniform[p])) {
+      // No estimate: an invalid pixel (already flagged) or a failed decomposition.
+      if ((flags[p] & kFlagInvalidInput) == 0) flags[p] |= kFlagNoReturn;
+      continue;
+    }
     estimate.count = 0;
     for (int l = 0; l < pisarenko.order; ++l) {
       const float w = pisarenko.weight[l * pixels + p];

@@ -35,10 +35,10 @@ class MeseCumulative {
   std::array<Complex, kMaxMoments> q_{};
   bool closed_form_ = false;
   int degree_ = 0;
-  // Per root pair: coefficient of the Log term for the outer pole (z = exp(i*phi)/x) and the
-  // inner pole (z = y*exp(-i*phi)), and the poles themselves.
+  // Per root x_l: the pole, the coefficients of the Log terms of x_l (z = exp(i*phi)/x_l) and
+  // of its mirror 1/conj(x_l) (z = exp(-i*phi)/conj(x_l)), and Log(1 - 1/x_l) for phi = 0.
   std::array<Complex, kMaxOrder> outer_pole_{}, outer_coefficient_{};
-  std::array<Complex, kMaxOrder> inner_pole_{}, inner_coefficient_{};
+  std::array<Complex, kMaxOrder> inner_coefficient_{}, log_at_zero_{};
   double slope_ = 0.0;  // c_0 / (2*pi)
 };
 

@@ -100,6 +100,8 @@ void MeseRange(const SolvedImage& solved, const RangeOptions& options, std::span
                std::span<uint8_t> flags);
 
 // Range of the first Pisarenko return whose weight is above the threshold; as MeseRange.
+// Pass the SolvedImage's flags: a pixel without a Pisarenko estimate that is not flagged
+// invalid gets kFlagNoReturn.
 void PisarenkoRange(const PisarenkoImage& pisarenko, const RangeOptions& options,
                     std::span<float> range_m, std::span<uint8_t> flags);
 

@@ -1,0 +1,158 @@
+// The built `transient` executable, run as a subprocess: exit codes, one-line errors on
+// stderr, the summary on stdout.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "tests/tools/scratch_directory.h"
+#include "tests/tools/test_files.h"
+
+namespace transient::tools {
+namespace {
+
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+using ::testing::IsEmpty;
+using ::testing::MatchesRegex;
+using testing::ScratchDirectory;
+using ::testing::SizeIs;
+using ::testing::StartsWith;
+
+struct Result {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string Quote(const std::string& text) {
+  return absl::StrCat("'", absl::StrJoin(absl::StrSplit(text, '\''), "'\\''"), "'");
+}
+
+std::string Slurp(const std::string& path) {
+  std::ifstream stream(path);
+  return std::string(std::istreambuf_iterator<char>(stream), {});
+}
+
+std::vector<std::string> Lines(const std::string& text) {
+  return absl::StrSplit(text, '\n', absl::SkipEmpty());
+}
+
+// Runs TRANSIENT_BINARY with `args`; stdout and stderr go to files outside `dir`'s listing.
+Result Run(const ScratchDirectory& dir, const ScratchDirectory& logs,
+           const std::vector<std::string>& args) {
+  std::string command = Quote(TRANSIENT_BINARY);
+  for (const std::string& arg : args) absl::StrAppend(&command, " ", Quote(arg));
+  absl::StrAppend(&command, " >", Quote(logs.File("stdout")), " 2>", Quote(logs.File("stderr")),
+                  " </dev/null");
+  const int status = std::system(command.c_str());
+  Result result;
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  result.out = Slurp(logs.File("stdout"));
+  result.err = Slurp(logs.File("stderr"));
+  (void)dir;
+  return result;
+}
+
+class TransientBinary : public ::testing::Test {
+ protected:
+  void SetUp() override { testing::WriteSmallMomentFile(input()); }
+  std::string input() const { return dir_.File("in.h5"); }
+  std::string output() const { return dir_.File("out.h5"); }
+  Result Run(const std::vector<std::string>& args) const { return tools::Run(dir_, logs_, args); }
+
+  ScratchDirectory dir_;
+  ScratchDirectory logs_;
+};
+
+TEST_F(TransientBinary, GoodFileExitsWithZeroAndPrintsOneSummaryLine) {
+  const Result result = Run({"reconstruct", input(), output()});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.err, IsEmpty());  // stderr is not a terminal: no progress bar
+  EXPECT_THAT(Lines(result.out), ElementsAre(HasSubstr("2 frames of 4x3 px (24 pixels), m=3")));
+  EXPECT_THAT(result.out, HasSubstr("-> " + output()));
+  EXPECT_THAT(dir_.Entries(), ElementsAre("in.h5", "out.h5"));
+}
+
+TEST_F(TransientBinary, BadFileExitsWithTwoAndOneErrorLine) {
+  testing::SetStringAttribute(input(), "/", "format", "transient-moments 2");
+  const Result result = Run({"reconstruct", input(), output()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_THAT(Lines(result.err),
+              ElementsAre(StartsWith("error: " + input() +
+                                     ": /: attribute format: expected 'transient-moments 1'")));
+  EXPECT_THAT(result.out, IsEmpty());
+  EXPECT_THAT(dir_.Entries(), ElementsAre("in.h5"));
+}
+
+TEST_F(TransientBinary, WrongShapeNamesTheDatasetAndTheExpectedShape) {
+  testing::ReplaceDataset(input(), "/moments/real", H5T_IEEE_F32LE, {2, 4, 3});
+  const Result result = Run({"reconstruct", input(), output()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_THAT(Lines(result.err),
+              ElementsAre("error: " + input() +
+                          ": /moments/real: expected 4 dimensions [frames, m+1, height, width], "
+                          "found 3"));
+  EXPECT_THAT(dir_.Entries(), ElementsAre("in.h5"));
+}
+
+TEST_F(TransientBinary, NonexistentFileExitsWithTwo) {
+  const Result result = Run({"reconstruct", dir_.File("nothing.h5"), output()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_THAT(Lines(result.err), ElementsAre(HasSubstr("nothing.h5: no such file")));
+}
+
+TEST_F(TransientBinary, OutOfRangeOptionExitsWithTwo) {
+  const Result result = Run({"reconstruct", input(), output(), "--bins", "4"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_THAT(Lines(result.err), ElementsAre("error: --bins = 4: expected an integer in 8..65536"));
+  EXPECT_THAT(dir_.Entries(), ElementsAre("in.h5"));
+}
+
+TEST_F(TransientBinary, UnknownMethodExitsWithTwo) {
+  const Result result = Run({"reconstruct", input(), output(), "--method", "fast"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_THAT(Lines(result.err),
+              ElementsAre("error: --method = 'fast': expected mese, pisarenko or both"));
+}
+
+TEST_F(TransientBinary, UnparsableOptionsExitWithTwoAndOneLine) {
+  for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{
+           {"reconstruct", input(), output(), "--bins", "many"},
+           {"reconstruct", input(), output(), "--frames", "1:2:3"},
+           {"reconstruct", input()},
+           {"reconstruct", input(), output(), "--no-such-option"},
+           {"deconstruct", input(), output()},
+           {}}) {
+    const Result result = Run(args);
+    EXPECT_EQ(result.exit_code, 2) << absl::StrJoin(args, " ");
+    EXPECT_THAT(Lines(result.err), ElementsAre(StartsWith("error: "))) << absl::StrJoin(args, " ");
+  }
+  EXPECT_THAT(dir_.Entries(), ElementsAre("in.h5"));
+}
+
+TEST_F(TransientBinary, HelpExitsWithZero) {
+  const Result result = Run({"reconstruct", "--help"});
+  EXPECT_EQ(result.exit_code, 0);
+  EXPECT_THAT(result.out, HasSubstr("--bias-epsilon"));
+  EXPECT_THAT(result.out, HasSubstr("--frames"));
+}
+
+TEST_F(TransientBinary, AllOptionsAreAccepted) {
+  const Result result =
+      Run({"reconstruct", input(), output(), "--method", "mese", "--bins", "16", "--bias-epsilon",
+           "1e-2", "--bias-mode", "scale", "--zeroth", "estimate", "--threshold", "0.2",
+           "--bounds-r", "0.7", "--frames", "1:"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(Lines(result.out), ElementsAre(MatchesRegex("1 frame of 4x3 px .* mese: .*")));
+}
+
+}  // namespace
+}  // namespace transient::tools

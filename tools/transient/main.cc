@@ -1,0 +1,157 @@
+// The `transient` command line: subcommands over the tool library. This file only maps
+// arguments to the commands' argument structs and statuses to messages and exit codes.
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "absl/status/status.h"
+#include "tools/transient/exit_status.h"
+#include "tools/transient/progress_bar.h"
+#include "tools/transient/reconstruct_command.h"
+
+namespace {
+
+using transient::tools::ErrorLine;
+using transient::tools::ExitCodeFor;
+using transient::tools::kExitBadInput;
+
+std::atomic<bool> interrupted{false};
+static_assert(std::atomic<bool>::is_always_lock_free, "set from a signal handler");
+
+// The first SIGINT/SIGTERM asks the running command to stop and clean up; a second one
+// kills the process at once (the default action is restored).
+extern "C" void OnInterrupt(int signal_number) {
+  interrupted.store(true);
+  std::signal(signal_number, SIG_DFL);
+}
+
+// The reconstruct subcommand's options as typed; turned into ReconstructArgs after parsing.
+struct ReconstructCommandLine {
+  transient::tools::ReconstructArgs args;
+  std::string method = "both";
+  std::string bias_mode = "raise";
+  std::string zeroth = "measured";
+  double bounds_r = 0.0;
+  CLI::Option* bounds_r_option = nullptr;
+  std::string frames;
+  CLI::Option* frames_option = nullptr;
+};
+
+CLI::App* AddReconstructCommand(CLI::App& app, ReconstructCommandLine& line) {
+  CLI::App* command = app.add_subcommand(
+      "reconstruct",
+      "Reconstruct a moment file (transient-moments 1) into range, density, cumulative and "
+      "Pisarenko images (transient-reconstruction 1). Layouts: tools/transient/FILES.md.");
+  transient::tools::ReconstructArgs& args = line.args;
+  command->add_option("input", args.input_path, "moment file to read (IN.h5)")->required();
+  command
+      ->add_option("output", args.output_path,
+                   "reconstruction file to write (OUT.h5); replaced only when the run succeeds")
+      ->required();
+  command->add_option("--method", line.method, "mese, pisarenko or both")->capture_default_str();
+  command
+      ->add_option("--bins", args.bins,
+                   "phases 2*pi*n/N of /density, /cumulative and /bounds (8..65536)")
+      ->capture_default_str();
+  command
+      ->add_option("--bias-epsilon", args.bias_epsilon,
+                   "bias so that lambda_min >= E * c_0 (0 < E < 1)")
+      ->capture_default_str();
+  command
+      ->add_option("--bias-mode", line.bias_mode,
+                   "raise (raise c_0) or scale (scale c_1..c_m down)")
+      ->capture_default_str();
+  command
+      ->add_option("--zeroth", line.zeroth,
+                   "measured (c_0 from the file) or estimate (from c_1..c_m)")
+      ->capture_default_str();
+  command
+      ->add_option("--threshold", args.threshold,
+                   "a return counts when above T times the pixel's strongest (0 <= T < 1)")
+      ->capture_default_str();
+  line.bounds_r_option =
+      command->add_option("--bounds-r", line.bounds_r,
+                          "also write /bounds for the Poisson kernel radius R (0 < R < 1)");
+  line.frames_option = command->add_option(
+      "--frames", line.frames, "frames A:B to reconstruct, a Python slice (default: all)");
+  return command;
+}
+
+absl::Status CompleteArgs(ReconstructCommandLine& line) {
+  transient::tools::ReconstructArgs& args = line.args;
+  absl::StatusOr<transient::tools::Method> method = transient::tools::ParseMethod(line.method);
+  if (!method.ok()) return method.status();
+  args.method = *method;
+  absl::StatusOr<transient::BiasMode> bias_mode = transient::tools::ParseBiasMode(line.bias_mode);
+  if (!bias_mode.ok()) return bias_mode.status();
+  args.bias_mode = *bias_mode;
+  absl::StatusOr<transient::ZerothMoment> zeroth = transient::tools::ParseZeroth(line.zeroth);
+  if (!zeroth.ok()) return zeroth.status();
+  args.zeroth = *zeroth;
+  if (line.bounds_r_option->count() > 0) args.bounds_r = line.bounds_r;
+  if (line.frames_option->count() > 0) {
+    absl::StatusOr<transient::tools::FrameSlice> frames =
+        transient::tools::ParseFrameSlice(line.frames);
+    if (!frames.ok()) return frames.status();
+    args.frames = *frames;
+  }
+  return args.Validate();
+}
+
+int RunReconstructCommand(ReconstructCommandLine& line) {
+  if (absl::Status status = CompleteArgs(line); !status.ok()) {
+    std::cerr << ErrorLine(status) << "\n";
+    return kExitBadInput;
+  }
+  std::signal(SIGINT, OnInterrupt);
+  std::signal(SIGTERM, OnInterrupt);
+
+  std::unique_ptr<transient::tools::ProgressBar> progress;
+  transient::tools::ReconstructHooks hooks{
+      .on_frame =
+          [&](int64_t done, int64_t total) {
+            if (progress == nullptr) {
+              progress = std::make_unique<transient::tools::ProgressBar>(stderr, total);
+            }
+            progress->Update(done);
+          },
+      .cancel = &interrupted,
+  };
+  absl::StatusOr<transient::tools::ReconstructSummary> summary =
+      transient::tools::RunReconstruct(line.args, hooks);
+  progress.reset();  // erase the bar before anything else is printed
+  if (!summary.ok()) {
+    std::cerr << ErrorLine(summary.status()) << "\n";
+    return ExitCodeFor(summary.status());
+  }
+  std::cout << transient::tools::FormatSummary(*summary) << "\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("transient: transient images and depth from AMCW time-of-flight moments",
+               "transient");
+  app.set_version_flag("--version", TRANSIENT_VERSION);
+  app.require_subcommand(1);
+  ReconstructCommandLine reconstruct_line;
+  CLI::App* reconstruct = AddReconstructCommand(app, reconstruct_line);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    if (error.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) {
+      return app.exit(error);  // --help, --version
+    }
+    std::cerr << "error: " << error.what() << " (see transient --help)\n";
+    return kExitBadInput;
+  }
+  if (reconstruct->parsed()) return RunReconstructCommand(reconstruct_line);
+  return kExitBadInput;  // unreachable: exactly one subcommand is required
+}

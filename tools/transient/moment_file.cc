@@ -1,0 +1,247 @@
+// Layout checks and hyperslab reads of `transient-moments 1` files.
+#include "tools/transient/moment_file.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <tuple>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/string_view.h"
+#include "tools/transient/format_tag.h"
+#include "transient/reconstruct/moments.h"
+
+namespace transient::tools {
+namespace {
+
+constexpr char kMomentsGroup[] = "/moments";
+constexpr char kRealPath[] = "/moments/real";
+constexpr char kImagPath[] = "/moments/imag";
+constexpr char kValidPath[] = "/moments/valid";
+constexpr char kBaseFrequencyAttribute[] = "base_frequency_hz";
+constexpr char kFormatAttribute[] = "format";
+
+// Existence and readability, checked before HDF5 sees the path so that the common mistakes
+// get their own message rather than HDF5's "unable to open file".
+absl::Status CheckReadableFile(const std::string& path) {
+  std::error_code error;
+  const std::filesystem::file_status status = std::filesystem::status(path, error);
+  if (!std::filesystem::exists(status)) {
+    return absl::NotFoundError(absl::StrCat(path, ": no such file"));
+  }
+  if (std::filesystem::is_directory(status)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": is a directory, expected an HDF5 moment file"));
+  }
+  std::FILE* stream = std::fopen(path.c_str(), "rb");
+  if (stream == nullptr) {
+    const int reason = errno;
+    const std::string message =
+        absl::StrCat(path, ": cannot be read (", std::strerror(reason), ")");
+    return reason == EACCES ? absl::PermissionDeniedError(message)
+                            : absl::InvalidArgumentError(message);
+  }
+  std::fclose(stream);
+  if (H5Fis_hdf5(path.c_str()) <= 0) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": not an HDF5 file"));
+  }
+  return absl::OkStatus();
+}
+
+// Opens the object at `object_path` and checks that it is of kind `kind` (H5I_GROUP or
+// H5I_DATASET); `description` completes "missing ..." and "expected ...".
+absl::StatusOr<h5::Id> OpenObject(hid_t file, const std::string& file_path, const char* object_path,
+                                  H5I_type_t kind, absl::string_view description) {
+  const std::string where = absl::StrCat(file_path, ": ", object_path);
+  if (!h5::LinkExists(file, object_path)) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ": missing ", description));
+  }
+  h5::Id object = h5::Object(H5Oopen(file, object_path, H5P_DEFAULT));
+  if (!object.valid()) {
+    return absl::DataLossError(absl::StrCat(where, ": cannot be opened"));
+  }
+  if (H5Iget_type(object.get()) != kind) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, ": expected ", description, ", found another kind of object"));
+  }
+  return object;
+}
+
+// Opens /moments/real or /moments/imag: float32 or float64, 4 dimensions.
+absl::StatusOr<h5::Id> OpenMomentDataset(hid_t file, const std::string& file_path,
+                                         const char* object_path, std::vector<hsize_t>* dims) {
+  absl::StatusOr<h5::Id> dataset =
+      OpenObject(file, file_path, object_path, H5I_DATASET,
+                 "dataset (float32 or float64, [frames, m+1, height, width])");
+  if (!dataset.ok()) return dataset.status();
+  const std::string where = absl::StrCat(file_path, ": ", object_path);
+  h5::Id type = h5::Datatype(H5Dget_type(dataset->get()));
+  const size_t size = H5Tget_size(type.get());
+  if (H5Tget_class(type.get()) != H5T_FLOAT || (size != 4 && size != 8)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, ": expected float32 or float64, found ", h5::DescribeType(type.get())));
+  }
+  h5::Id space = h5::Dataspace(H5Dget_space(dataset->get()));
+  *dims = h5::Dimensions(space.get());
+  if (dims->size() != 4) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        where, ": expected 4 dimensions [frames, m+1, height, width], found ", dims->size()));
+  }
+  return dataset;
+}
+
+}  // namespace
+
+absl::StatusOr<MomentFile> MomentFile::Open(const std::string& path) {
+  h5::SilenceErrorStack();
+  if (absl::Status readable = CheckReadableFile(path); !readable.ok()) return readable;
+
+  MomentFile file;
+  file.path_ = path;
+  file.file_ = h5::File(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
+  if (!file.file_.valid()) {
+    return absl::DataLossError(
+        absl::StrCat(path, ": HDF5 cannot open the file (corrupt, truncated or locked)"));
+  }
+  const hid_t id = file.file_.get();
+
+  absl::StatusOr<std::string> format =
+      h5::ReadStringAttribute(id, kFormatAttribute, absl::StrCat(path, ": /"));
+  if (!format.ok()) return format.status();
+  if (absl::Status tag = CheckFormatTag(*format, kMomentFormatName, kMomentFormatMajor);
+      !tag.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": /: attribute ", kFormatAttribute, ": ", tag.message()));
+  }
+
+  absl::StatusOr<h5::Id> group =
+      OpenObject(id, path, kMomentsGroup, H5I_GROUP, "group (with datasets real and imag)");
+  if (!group.ok()) return group.status();
+
+  std::vector<hsize_t> real_dims, imag_dims;
+  absl::StatusOr<h5::Id> real = OpenMomentDataset(id, path, kRealPath, &real_dims);
+  if (!real.ok()) return real.status();
+  absl::StatusOr<h5::Id> imag = OpenMomentDataset(id, path, kImagPath, &imag_dims);
+  if (!imag.ok()) return imag.status();
+  if (imag_dims != real_dims) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": ", kImagPath, ": expected the shape of ", kRealPath, " ",
+        h5::DimensionsToString(real_dims), ", found ", h5::DimensionsToString(imag_dims)));
+  }
+  file.real_ = *std::move(real);
+  file.imag_ = *std::move(imag);
+
+  const std::string real_where = absl::StrCat(path, ": ", kRealPath);
+  const hsize_t frames = real_dims[0], moments = real_dims[1];
+  const hsize_t height = real_dims[2], width = real_dims[3];
+  if (frames == 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(real_where, ": expected at least 1 frame, found 0"));
+  }
+  if (moments < 2 || moments > static_cast<hsize_t>(kMaxMoments)) {
+    return absl::InvalidArgumentError(absl::StrCat(real_where, ": expected m+1 = 2..", kMaxMoments,
+                                                   " moments (m = 1..", kMaxOrder,
+                                                   ") in dimension 2, found ", moments));
+  }
+  constexpr hsize_t kMaxSide = std::numeric_limits<int>::max();
+  if (height == 0 || width == 0 || height > kMaxSide || width > kMaxSide) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        real_where, ": expected a non-empty image, found height ", height, " and width ", width));
+  }
+  file.frames_ = static_cast<int64_t>(frames);
+  file.order_ = static_cast<int>(moments) - 1;
+  file.geometry_ = {.width = static_cast<int>(width), .height = static_cast<int>(height)};
+
+  absl::StatusOr<double> frequency = h5::ReadNumericAttribute(
+      group->get(), kBaseFrequencyAttribute, absl::StrCat(path, ": ", kMomentsGroup));
+  if (!frequency.ok()) return frequency.status();
+  if (!std::isfinite(*frequency) || *frequency <= 0.0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": ", kMomentsGroup, ": attribute ", kBaseFrequencyAttribute,
+                     ": expected a finite value > 0, found ", *frequency));
+  }
+  file.base_frequency_hz_ = *frequency;
+
+  if (h5::LinkExists(id, kValidPath)) {
+    absl::StatusOr<h5::Id> valid =
+        OpenObject(id, path, kValidPath, H5I_DATASET, "dataset (uint8, [frames, height, width])");
+    if (!valid.ok()) return valid.status();
+    const std::string where = absl::StrCat(path, ": ", kValidPath);
+    h5::Id type = h5::Datatype(H5Dget_type(valid->get()));
+    const H5T_class_t type_class = H5Tget_class(type.get());
+    // h5py stores numpy booleans as a one-byte enum; accept them beside (u)int8.
+    if ((type_class != H5T_INTEGER && type_class != H5T_ENUM) || H5Tget_size(type.get()) != 1) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(where, ": expected uint8, found ", h5::DescribeType(type.get())));
+    }
+    h5::Id space = h5::Dataspace(H5Dget_space(valid->get()));
+    const std::vector<hsize_t> dims = h5::Dimensions(space.get());
+    const std::vector<hsize_t> expected = {frames, height, width};
+    if (dims != expected) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          where, ": expected shape [frames, height, width] = ", h5::DimensionsToString(expected),
+          ", found ", h5::DimensionsToString(dims)));
+    }
+    file.valid_ = *std::move(valid);
+  }
+  return file;
+}
+
+absl::Status MomentFile::ReadFrame(int64_t frame, MomentImage* image) const {
+  if (frame < 0 || frame >= frames_) {
+    return absl::OutOfRangeError(
+        absl::StrCat(path_, ": frame ", frame, " is outside 0..", frames_ - 1));
+  }
+  const int64_t pixels = geometry_.pixel_count();
+  image->geometry = geometry_;
+  image->order = order_;
+  image->real.resize((order_ + 1) * pixels);
+  image->imag.resize((order_ + 1) * pixels);
+
+  const auto read_failed = [&](const char* object) {
+    return absl::DataLossError(
+        absl::StrCat(path_, ": ", object, ": cannot read frame ", frame, " (corrupt file?)"));
+  };
+  const hsize_t height = geometry_.height, width = geometry_.width;
+  {
+    const hsize_t start[4] = {static_cast<hsize_t>(frame), 0, 0, 0};
+    const hsize_t count[4] = {1, static_cast<hsize_t>(order_ + 1), height, width};
+    h5::Id memory = h5::Dataspace(H5Screate_simple(4, count, nullptr));
+    for (auto [dataset, buffer, object] :
+         {std::tuple{real_.get(), image->real.data(), kRealPath},
+          std::tuple{imag_.get(), image->imag.data(), kImagPath}}) {
+      h5::Id selection = h5::Dataspace(H5Dget_space(dataset));
+      if (H5Sselect_hyperslab(selection.get(), H5S_SELECT_SET, start, nullptr, count, nullptr) <
+              0 ||
+          H5Dread(dataset, H5T_NATIVE_FLOAT, memory.get(), selection.get(), H5P_DEFAULT, buffer) <
+              0) {
+        return read_failed(object);
+      }
+    }
+  }
+  if (!valid_.valid()) {
+    image->valid.clear();
+    return absl::OkStatus();
+  }
+  image->valid.resize(pixels);
+  const hsize_t start[3] = {static_cast<hsize_t>(frame), 0, 0};
+  const hsize_t count[3] = {1, height, width};
+  h5::Id memory = h5::Dataspace(H5Screate_simple(3, count, nullptr));
+  h5::Id selection = h5::Dataspace(H5Dget_space(valid_.get()));
+  h5::Id file_type = h5::Datatype(H5Dget_type(valid_.get()));
+  // The native form of the stored one-byte type: HDF5 converts neither enums to integers nor
+  // back, and both are one byte whose zero means "invalid".
+  h5::Id memory_type = h5::Datatype(H5Tget_native_type(file_type.get(), H5T_DIR_ASCEND));
+  if (H5Sselect_hyperslab(selection.get(), H5S_SELECT_SET, start, nullptr, count, nullptr) < 0 ||
+      H5Dread(valid_.get(), memory_type.get(), memory.get(), selection.get(), H5P_DEFAULT,
+              image->valid.data()) < 0) {
+    return read_failed(kValidPath);
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace transient::tools

@@ -1,0 +1,366 @@
+// The reconstruct command: read a frame, solve it, write its products, repeat.
+#include "tools/transient/reconstruct_command.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <span>
+#include <system_error>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "tools/transient/moment_file.h"
+#include "tools/transient/reconstruction_file.h"
+#include "tools/transient/temporary_output.h"
+
+namespace transient::tools {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+bool HasMese(Method method) { return method != Method::kPisarenko; }
+bool HasPisarenko(Method method) { return method != Method::kMese; }
+
+// Adds `file`'s name to a status from a component that does not know it.
+absl::Status InFile(const std::string& file, const absl::Status& status) {
+  return absl::Status(status.code(), absl::StrCat(file, ": ", status.message()));
+}
+
+// Per-frame working buffers, allocated once for the whole run.
+struct FrameBuffers {
+  MomentImage moments;
+  std::vector<float> plane;          // one image
+  std::vector<float> second_plane;   // one image
+  std::vector<uint8_t> flags;        // /flags
+  std::vector<uint8_t> range_flags;  // flags as returned by a range estimate
+  std::vector<float> block;          // a block of bins planes
+  std::vector<float> second_block;   // a block of bins planes
+};
+
+struct FrameCounts {
+  int64_t biased = 0, invalid = 0, no_return = 0;
+};
+
+// Combines the solver's flags with the kFlagNoReturn bit of a range estimate, so that
+// /range_m is NaN exactly where /flags says why. The range functions flag every NaN they
+// leave on a valid pixel; counting any other NaN as "no return" keeps that promise even if
+// an estimate fails in a way they do not report.
+void MergeNoReturn(std::span<const uint8_t> solved, std::span<const uint8_t> range_flags,
+                   std::span<const float> range_m, std::span<uint8_t> out) {
+  for (size_t p = 0; p < out.size(); ++p) {
+    const bool unexplained_nan = std::isnan(range_m[p]) && (solved[p] & kFlagInvalidInput) == 0;
+    out[p] = static_cast<uint8_t>(solved[p] | (range_flags[p] & kFlagNoReturn) |
+                                  (unexplained_nan ? kFlagNoReturn : 0));
+  }
+}
+
+// Writes a bins-planes product computed by `compute(phases, out)` a block of bins at a time.
+template <typename Compute>
+absl::Status WriteBinBlocks(ReconstructionFile& file, Product product, int64_t frame,
+                            std::span<const double> phases, int64_t bins_per_block, int64_t pixels,
+                            std::vector<float>& block, Compute compute) {
+  for (int64_t first = 0; first < static_cast<int64_t>(phases.size()); first += bins_per_block) {
+    const int64_t count = std::min<int64_t>(bins_per_block, phases.size() - first);
+    block.resize(count * pixels);
+    compute(phases.subspan(first, count), std::span<float>(block));
+    if (absl::Status status = file.Write(product, frame, static_cast<int>(first), block);
+        !status.ok()) {
+      return status;
+    }
+  }
+  return absl::OkStatus();
+}
+
+class FrameReconstructor {
+ public:
+  FrameReconstructor(const ReconstructArgs& args, double base_frequency_hz,
+                     std::vector<double> phases)
+      : args_(args), phases_(std::move(phases)) {
+    solve_options_.bias_epsilon = args.bias_epsilon;
+    solve_options_.bias_mode = args.bias_mode;
+    solve_options_.zeroth = args.zeroth;
+    range_options_.base_frequency_hz = base_frequency_hz;
+    range_options_.threshold = args.threshold;
+  }
+
+  absl::Status ValidateOptions() const {
+    if (absl::Status status = solve_options_.Validate(); !status.ok()) return status;
+    return range_options_.Validate();
+  }
+
+  // Reconstructs `moments` and writes its products as output frame `frame`.
+  absl::Status Run(const MomentImage& moments, int64_t frame, ReconstructionFile& file,
+                   FrameBuffers& buffers, FrameCounts& counts) const;
+
+ private:
+  const ReconstructArgs& args_;
+  std::vector<double> phases_;
+  SolveOptions solve_options_;
+  RangeOptions range_options_;
+};
+
+absl::Status FrameReconstructor::Run(const MomentImage& moments, int64_t frame,
+                                     ReconstructionFile& file, FrameBuffers& buffers,
+                                     FrameCounts& counts) const {
+  const SolvedImage solved = Solve(moments, solve_options_);
+  const int64_t pixels = moments.geometry.pixel_count();
+  std::vector<float>& plane = buffers.plane;
+  std::vector<uint8_t>& flags = buffers.flags;
+  std::vector<uint8_t>& range_flags = buffers.range_flags;
+  plane.resize(pixels);
+  buffers.second_plane.resize(pixels);
+
+  for (int64_t p = 0; p < pixels; ++p) {
+    plane[p] = solved.valid(p) ? static_cast<float>(solved.c0(p)) : kNaN;
+  }
+  if (absl::Status s = file.Write(Product::kZerothMoment, frame, 0, plane); !s.ok()) return s;
+
+  // /range_m and the no-return bit of /flags come from MESE unless only Pisarenko runs.
+  if (HasMese(args_.method)) {
+    range_flags = solved.flags;
+    MeseRange(solved, range_options_, plane, range_flags);
+    flags.resize(pixels);
+    MergeNoReturn(solved.flags, range_flags, plane, flags);
+    if (absl::Status s = file.Write(Product::kRange, frame, 0, plane); !s.ok()) return s;
+  }
+  if (HasPisarenko(args_.method)) {
+    const PisarenkoImage pisarenko = EstimatePisarenko(solved);
+    for (auto [product, values] : {std::pair{Product::kPisarenkoPhase, &pisarenko.phase},
+                                   std::pair{Product::kPisarenkoWeight, &pisarenko.weight},
+                                   std::pair{Product::kPisarenkoUniform, &pisarenko.uniform}}) {
+      if (absl::Status s = file.Write(product, frame, 0, *values); !s.ok()) return s;
+    }
+    range_flags = solved.flags;
+    PisarenkoRange(pisarenko, range_options_, plane, range_flags);
+    if (absl::Status s = file.Write(Product::kPisarenkoRange, frame, 0, plane); !s.ok()) return s;
+    if (!HasMese(args_.method)) {
+      flags.resize(pixels);
+      MergeNoReturn(solved.flags, range_flags, plane, flags);
+      if (absl::Status s = file.Write(Product::kRange, frame, 0, plane); !s.ok()) return s;
+    }
+    SeparateDirectIndirect(pisarenko, args_.threshold, plane, buffers.second_plane);
+    if (absl::Status s = file.Write(Product::kPisarenkoDirect, frame, 0, plane); !s.ok()) return s;
+    if (absl::Status s = file.Write(Product::kPisarenkoIndirect, frame, 0, buffers.second_plane);
+        !s.ok()) {
+      return s;
+    }
+  }
+  if (absl::Status s = file.WriteFlags(frame, flags); !s.ok()) return s;
+  for (uint8_t f : flags) {
+    counts.biased += (f & kFlagBiased) != 0;
+    counts.invalid += (f & kFlagInvalidInput) != 0;
+    counts.no_return += (f & kFlagNoReturn) != 0;
+  }
+
+  const int64_t bins = static_cast<int64_t>(phases_.size());
+  const int64_t bins_per_block = std::clamp<int64_t>(args_.max_block_values / pixels, 1, bins);
+  if (HasMese(args_.method)) {
+    for (Product product : {Product::kDensity, Product::kCumulative}) {
+      absl::Status status =
+          WriteBinBlocks(file, product, frame, phases_, bins_per_block, pixels, buffers.block,
+                         [&](std::span<const double> phases, std::span<float> out) {
+                           if (product == Product::kDensity) {
+                             DensitySlices(solved, phases, out);
+                           } else {
+                             CumulativeSlices(solved, phases, out);
+                           }
+                         });
+      if (!status.ok()) return status;
+    }
+  }
+  if (args_.bounds_r.has_value()) {
+    // Lower and upper bounds come from one call; compute each block once for both datasets.
+    for (int64_t first = 0; first < bins; first += bins_per_block) {
+      const int64_t count = std::min(bins_per_block, bins - first);
+      buffers.block.resize(count * pixels);
+      buffers.second_block.resize(count * pixels);
+      BoundSlices(solved, *args_.bounds_r, std::span(phases_).subspan(first, count), buffers.block,
+                  buffers.second_block);
+      const int first_plane = static_cast<int>(first);
+      if (absl::Status s = file.Write(Product::kBoundsLower, frame, first_plane, buffers.block);
+          !s.ok()) {
+        return s;
+      }
+      if (absl::Status s =
+              file.Write(Product::kBoundsUpper, frame, first_plane, buffers.second_block);
+          !s.ok()) {
+        return s;
+      }
+    }
+  }
+  return absl::OkStatus();
+}
+
+// Refuses to replace the input with the output: the rename at the end would destroy it.
+absl::Status CheckOutputIsNotInput(const ReconstructArgs& args) {
+  std::error_code error;
+  if (std::filesystem::equivalent(args.input_path, args.output_path, error)) {
+    return absl::InvalidArgumentError(absl::StrCat(args.output_path, ": is the input file ",
+                                                   args.input_path, "; refusing to overwrite it"));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::string_view MethodName(Method method) {
+  switch (method) {
+    case Method::kMese:
+      return "mese";
+    case Method::kPisarenko:
+      return "pisarenko";
+    case Method::kBoth:
+      return "both";
+  }
+  return "unknown";
+}
+
+absl::string_view BiasModeName(BiasMode mode) {
+  return mode == BiasMode::kRaiseZeroth ? "raise" : "scale";
+}
+
+absl::string_view ZerothName(ZerothMoment zeroth) {
+  return zeroth == ZerothMoment::kMeasured ? "measured" : "estimate";
+}
+
+absl::StatusOr<Method> ParseMethod(absl::string_view text) {
+  for (Method method : {Method::kMese, Method::kPisarenko, Method::kBoth}) {
+    if (text == MethodName(method)) return method;
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat("--method = '", text, "': expected mese, pisarenko or both"));
+}
+
+absl::StatusOr<BiasMode> ParseBiasMode(absl::string_view text) {
+  for (BiasMode mode : {BiasMode::kRaiseZeroth, BiasMode::kScaleMoments}) {
+    if (text == BiasModeName(mode)) return mode;
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat("--bias-mode = '", text, "': expected raise or scale"));
+}
+
+absl::StatusOr<ZerothMoment> ParseZeroth(absl::string_view text) {
+  for (ZerothMoment zeroth : {ZerothMoment::kMeasured, ZerothMoment::kEstimate}) {
+    if (text == ZerothName(zeroth)) return zeroth;
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat("--zeroth = '", text, "': expected measured or estimate"));
+}
+
+absl::Status ReconstructArgs::Validate() const {
+  if (input_path.empty()) return absl::InvalidArgumentError("input file: the path is empty");
+  if (output_path.empty()) return absl::InvalidArgumentError("output file: the path is empty");
+  if (bins < kMinBins || bins > kMaxBins) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--bins = ", bins, ": expected an integer in ", kMinBins, "..", kMaxBins));
+  }
+  // Written so that NaN fails every check.
+  if (!(bias_epsilon >= transient::kMinBiasEpsilon && bias_epsilon < 1.0)) {
+    return absl::InvalidArgumentError(absl::StrCat("--bias-epsilon = ", bias_epsilon,
+                                                   ": expected ", transient::kMinBiasEpsilon,
+                                                   " <= E < 1"));
+  }
+  if (!(threshold >= 0.0 && threshold < 1.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--threshold = ", threshold, ": expected 0 <= T < 1"));
+  }
+  if (bounds_r.has_value() && !(*bounds_r > 0.0 && *bounds_r < 1.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--bounds-r = ", *bounds_r, ": expected 0 < R < 1"));
+  }
+  return absl::OkStatus();
+}
+
+std::string FormatSummary(const ReconstructSummary& summary) {
+  const auto percent = [&](int64_t count) {
+    return summary.pixels > 0 ? 100.0 * static_cast<double>(count) / summary.pixels : 0.0;
+  };
+  return absl::StrFormat(
+      "%d frame%s of %dx%d px (%d pixels), m=%d, %s: %.1f%% biased, %.1f%% invalid, %.1f%% no "
+      "return, %.2f s -> %s",
+      summary.frames, summary.frames == 1 ? "" : "s", summary.geometry.width,
+      summary.geometry.height, summary.pixels, summary.order, MethodName(summary.method),
+      percent(summary.biased), percent(summary.invalid), percent(summary.no_return),
+      summary.seconds, summary.output_path);
+}
+
+absl::StatusOr<ReconstructSummary> RunReconstruct(const ReconstructArgs& args,
+                                                  const ReconstructHooks& hooks) {
+  const auto start_time = std::chrono::steady_clock::now();
+  if (absl::Status status = args.Validate(); !status.ok()) return status;
+
+  absl::StatusOr<MomentFile> input = MomentFile::Open(args.input_path);
+  if (!input.ok()) return input.status();
+  absl::StatusOr<FrameRange> frames = ResolveFrameSlice(args.frames, input->frames());
+  if (!frames.ok()) return InFile(args.input_path, frames.status());
+
+  const std::vector<double> phases = UniformPhases(args.bins);
+  FrameReconstructor reconstructor(args, input->base_frequency_hz(), phases);
+  if (absl::Status status = reconstructor.ValidateOptions(); !status.ok()) {
+    return InFile(args.input_path, status);
+  }
+  if (absl::Status status = CheckOutputIsNotInput(args); !status.ok()) return status;
+  absl::StatusOr<TemporaryOutput> output = TemporaryOutput::Prepare(args.output_path);
+  if (!output.ok()) return output.status();
+
+  ReconstructionHeader header{
+      .frames = frames->count,
+      .order = input->order(),
+      .geometry = input->geometry(),
+      .phases = phases,
+      .mese = HasMese(args.method),
+      .pisarenko = HasPisarenko(args.method),
+      .bounds_r = args.bounds_r,
+      .base_frequency_hz = input->base_frequency_hz(),
+      .method = std::string(MethodName(args.method)),
+      .bias_epsilon = args.bias_epsilon,
+      .bias_mode = std::string(BiasModeName(args.bias_mode)),
+      .zeroth = std::string(ZerothName(args.zeroth)),
+      .threshold = args.threshold,
+      .first_frame = frames->first,
+      .source = args.input_path,
+  };
+  absl::StatusOr<ReconstructionFile> file =
+      ReconstructionFile::Create(output->temporary_path(), header);
+  if (!file.ok()) return file.status();
+
+  ReconstructSummary summary{.output_path = args.output_path,
+                             .frames = frames->count,
+                             .geometry = input->geometry(),
+                             .order = input->order(),
+                             .method = args.method};
+  FrameBuffers buffers;
+  FrameCounts counts;
+  for (int64_t k = 0; k < frames->count; ++k) {
+    if (hooks.cancel != nullptr && hooks.cancel->load()) {
+      return absl::CancelledError("interrupted; no output written");
+    }
+    if (absl::Status status = input->ReadFrame(frames->first + k, &buffers.moments); !status.ok()) {
+      return status;
+    }
+    if (absl::Status status = buffers.moments.Validate(); !status.ok()) {
+      return absl::InternalError(
+          absl::StrCat(args.input_path, ": frame ", frames->first + k, ": ", status.message()));
+    }
+    if (absl::Status status = reconstructor.Run(buffers.moments, k, *file, buffers, counts);
+        !status.ok()) {
+      return status;
+    }
+    if (hooks.on_frame) hooks.on_frame(k + 1, frames->count);
+  }
+  if (absl::Status status = file->Close(); !status.ok()) return status;
+  if (absl::Status status = output->Commit(); !status.ok()) return status;
+
+  summary.pixels = frames->count * input->geometry().pixel_count();
+  summary.biased = counts.biased;
+  summary.invalid = counts.invalid;
+  summary.no_return = counts.no_return;
+  summary.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+  return summary;
+}
+
+}  // namespace transient::tools
