@@ -29,10 +29,9 @@ absl::Status MomentImage::Validate() const {
         " imaginary values. Violated constraint: both == (m+1)*width*height = ", expected));
   }
   if (!valid.empty() && valid.size() != static_cast<size_t>(geometry.pixel_count())) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("valid plane holds ", valid.size(),
-                     " values. Violated constraint: empty or width*height = ",
-                     geometry.pixel_count()));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "valid plane holds ", valid.size(),
+        " values. Violated constraint: empty or width*height = ", geometry.pixel_count()));
   }
   return absl::OkStatus();
 }

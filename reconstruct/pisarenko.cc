@@ -93,8 +93,7 @@ bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate) {
   std::array<Complex, kMaxMoments> coefficients;
   for (int j = 0; j < size; ++j) coefficients[j] = std::conj(solver.eigenvectors()(j, 0));
   std::array<Complex, kMaxOrder> roots;
-  const int degree =
-      PolynomialRoots(std::span<const Complex>(coefficients.data(), size), roots);
+  const int degree = PolynomialRoots(std::span<const Complex>(coefficients.data(), size), roots);
   std::array<double, kMaxOrder> phases;
   int n = 0;
   for (int l = 0; l < degree; ++l) {
@@ -106,8 +105,8 @@ bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate) {
 
   // Real weights from the Vandermonde system against (c_0 - lambda_min, c_1, ..., c_m)
   // (thesis alg. 8.2, step 3), solved in the least-squares sense over all m+1 equations.
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 2 * kMaxMoments, kMaxOrder> a(
-      2 * size, n);
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 2 * kMaxMoments, kMaxOrder> a(2 * size,
+                                                                                         n);
   Residual b(2 * size);
   for (int j = 0; j <= m; ++j) {
     const Complex target = (j == 0) ? Complex(c0 - lambda_min) : c[j];
@@ -124,8 +123,7 @@ bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate) {
 
   std::array<int, kMaxOrder> order;
   std::iota(order.begin(), order.begin() + n, 0);
-  std::sort(order.begin(), order.begin() + n,
-            [&](int i, int j) { return phases[i] < phases[j]; });
+  std::sort(order.begin(), order.begin() + n, [&](int i, int j) { return phases[i] < phases[j]; });
   const double sparse_mass = std::max(c0 - lambda_min, 0.0);
   for (int i = 0; i < n; ++i) {
     const int l = order[i];

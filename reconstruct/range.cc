@@ -77,8 +77,7 @@ double MeseFirstPeakPhase(std::span<const Complex> q, double threshold, int sear
   return first;
 }
 
-double PisarenkoFirstReturnPhase(const PisarenkoEstimate& estimate, double threshold,
-                                 int* index) {
+double PisarenkoFirstReturnPhase(const PisarenkoEstimate& estimate, double threshold, int* index) {
   if (index != nullptr) *index = -1;
   double largest = 0.0;
   for (int l = 0; l < estimate.count; ++l) largest = std::max(largest, estimate.weight[l]);

@@ -42,8 +42,8 @@ absl::Status SolveOptions::Validate() const {
 
 absl::Status RangeOptions::Validate() const {
   if (!(base_frequency_hz > 0.0) || !std::isfinite(base_frequency_hz)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "base_frequency_hz = ", base_frequency_hz, ". Violated constraint: finite and > 0"));
+    return absl::InvalidArgumentError(absl::StrCat("base_frequency_hz = ", base_frequency_hz,
+                                                   ". Violated constraint: finite and > 0"));
   }
   if (!(threshold >= 0.0 && threshold <= 1.0)) {
     return absl::InvalidArgumentError(

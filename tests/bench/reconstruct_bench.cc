@@ -36,9 +36,9 @@ void BM_Solve(benchmark::State& state) {
   const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
   for (auto _ : state) benchmark::DoNotOptimize(Solve(image, SolveOptions{}));
   state.SetItemsProcessed(state.iterations() * image.geometry.pixel_count());
-  state.counters["pixels/s"] = benchmark::Counter(
-      static_cast<double>(state.iterations() * image.geometry.pixel_count()),
-      benchmark::Counter::kIsRate);
+  state.counters["pixels/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations() * image.geometry.pixel_count()),
+                         benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_Solve)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
 
@@ -66,8 +66,8 @@ void BM_MeseRange(benchmark::State& state) {
     MeseRange(solved, RangeOptions{}, range, flags);
     benchmark::ClobberMemory();
   }
-  state.counters["pixels/s"] = benchmark::Counter(
-      static_cast<double>(state.iterations() * pixels), benchmark::Counter::kIsRate);
+  state.counters["pixels/s"] = benchmark::Counter(static_cast<double>(state.iterations() * pixels),
+                                                  benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_MeseRange)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
 
@@ -75,9 +75,9 @@ void BM_Pisarenko(benchmark::State& state) {
   const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
   const SolvedImage solved = Solve(image, SolveOptions{});
   for (auto _ : state) benchmark::DoNotOptimize(EstimatePisarenko(solved));
-  state.counters["pixels/s"] = benchmark::Counter(
-      static_cast<double>(state.iterations() * image.geometry.pixel_count()),
-      benchmark::Counter::kIsRate);
+  state.counters["pixels/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations() * image.geometry.pixel_count()),
+                         benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_Pisarenko)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
 

@@ -22,8 +22,7 @@ double Integral(std::span<const Complex> q, double a, double b, double c0) {
 }
 
 TEST(Quadrature, IntegratesKnownFunctions) {
-  EXPECT_NEAR(IntegrateAdaptive([](double x) { return std::sin(x); }, 0.0, std::numbers::pi,
-                                1e-12),
+  EXPECT_NEAR(IntegrateAdaptive([](double x) { return std::sin(x); }, 0.0, std::numbers::pi, 1e-12),
               2.0, 1e-11);
   // A Lorentzian of width 1e-6: a fixed grid of 64 pieces cannot see it, the adaptive rule can.
   const double w = 1e-6;

@@ -60,12 +60,12 @@ TEST(Reconstructor, FlagsInvalidInputWithoutAbortingTheFrame) {
   std::mt19937_64 rng(21);
   std::vector<double> first;
   MomentImage image = MakeFrame(3, rng, &first);
-  image.real_plane(2)[0] = std::numeric_limits<float>::quiet_NaN();   // NaN moment
-  image.imag_plane(1)[1] = std::numeric_limits<float>::infinity();    // Inf moment
-  image.real_plane(0)[2] = 0.0f;                                      // no light
-  image.real_plane(0)[3] = -1.0f;                                     // negative c_0
+  image.real_plane(2)[0] = std::numeric_limits<float>::quiet_NaN();  // NaN moment
+  image.imag_plane(1)[1] = std::numeric_limits<float>::infinity();   // Inf moment
+  image.real_plane(0)[2] = 0.0f;                                     // no light
+  image.real_plane(0)[3] = -1.0f;                                    // negative c_0
   image.valid.assign(kGeometry.pixel_count(), 1);
-  image.valid[4] = 0;                                                 // marked by the source
+  image.valid[4] = 0;  // marked by the source
   const SolvedImage solved = Solve(image, SolveOptions{});
   for (int p = 0; p < 5; ++p) {
     EXPECT_TRUE(solved.flags[p] & kFlagInvalidInput) << p;

@@ -326,8 +326,8 @@ TEST(ReconstructBadInput, UnreadableFileIsReportedAsSuch) {
                 StatusIs(absl::StatusCode::kPermissionDenied, HasSubstr("in.h5: cannot be read")));
   } else {
     // Root reads every file: check in a child process that has dropped to user nobody.
-    std::filesystem::permissions(dir.path(), std::filesystem::perms::owner_all |
-                                                   std::filesystem::perms::others_exec);
+    std::filesystem::permissions(
+        dir.path(), std::filesystem::perms::owner_all | std::filesystem::perms::others_exec);
     const pid_t child = ::fork();
     ASSERT_GE(child, 0);
     if (child == 0) {

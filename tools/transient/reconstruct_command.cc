@@ -259,9 +259,8 @@ absl::Status ReconstructArgs::Validate() const {
   }
   // Written so that NaN fails every check.
   if (!(bias_epsilon >= transient::kMinBiasEpsilon && bias_epsilon < 1.0)) {
-    return absl::InvalidArgumentError(absl::StrCat("--bias-epsilon = ", bias_epsilon,
-                                                   ": expected ", transient::kMinBiasEpsilon,
-                                                   " <= E < 1"));
+    return absl::InvalidArgumentError(absl::StrCat("--bias-epsilon = ", bias_epsilon, ": expected ",
+                                                   transient::kMinBiasEpsilon, " <= E < 1"));
   }
   if (!(threshold >= 0.0 && threshold < 1.0)) {
     return absl::InvalidArgumentError(

@@ -30,7 +30,7 @@ class MeseCumulative {
  private:
   double Quadrature(double phase) const;
 
-  int size_ = 0;  // m + 1
+  int size_ = 0;     // m + 1
   double c0_ = 0.0;  // from inverse Levinson
   std::array<Complex, kMaxMoments> q_{};
   bool closed_form_ = false;

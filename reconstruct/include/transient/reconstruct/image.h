@@ -23,9 +23,9 @@ struct ImageGeometry {
 // (arbitrary but linear in light); the phase origin is the calibrated zero of thesis §8.3.2.
 struct MomentImage {
   ImageGeometry geometry;
-  int order = 0;             // m, 1 <= m <= kMaxOrder
-  std::vector<float> real;   // (m+1) * pixel_count()
-  std::vector<float> imag;   // (m+1) * pixel_count()
+  int order = 0;               // m, 1 <= m <= kMaxOrder
+  std::vector<float> real;     // (m+1) * pixel_count()
+  std::vector<float> imag;     // (m+1) * pixel_count()
   std::vector<uint8_t> valid;  // empty (all valid) or pixel_count(); 0 = invalid pixel
 
   MomentImage() = default;

@@ -2,11 +2,10 @@
 // the conversion between phase and range. Conventions follow DESIGN.md and thesis ch. 2/8.
 #pragma once
 
+#include <Eigen/Core>
 #include <complex>
 #include <numbers>
 #include <span>
-
-#include <Eigen/Core>
 
 namespace transient {
 

@@ -13,7 +13,7 @@ struct PisarenkoEstimate {
   // Total mass of the uniform component, lambda_min(C(c)): its density is uniform / (2*pi)
   // per radian and its moments are (uniform, 0, ..., 0).
   double uniform = 0.0;
-  int count = 0;         // number of returns, 0..m
+  int count = 0;                           // number of returns, 0..m
   std::array<double, kMaxOrder> phase{};   // radians in [0, 2*pi), ascending
   std::array<double, kMaxOrder> weight{};  // > 0
 };

@@ -42,8 +42,7 @@ double IntegrateAdaptive(const F& f, double a, double b, double tolerance, int p
     const double lo = a + k * h, hi = (k + 1 == pieces) ? b : a + (k + 1) * h;
     const double flo = f(lo), fmid = f(0.5 * (lo + hi)), fhi = f(hi);
     const double whole = (hi - lo) / 6.0 * (flo + 4.0 * fmid + fhi);
-    sum += internal::AdaptiveSimpsonStep(f, lo, hi, flo, fmid, fhi, whole, tolerance / pieces,
-                                         30);
+    sum += internal::AdaptiveSimpsonStep(f, lo, hi, flo, fmid, fhi, whole, tolerance / pieces, 30);
   }
   return sum;
 }

@@ -74,8 +74,7 @@ PisarenkoImage EstimatePisarenko(const SolvedImage& solved);
 std::vector<double> UniformPhases(int bins);
 
 // MESE density D(phi) per radian (thesis eq. 8.3): out[n * pixels + p] = D_p(phases[n]).
-void DensitySlices(const SolvedImage& solved, std::span<const double> phases,
-                   std::span<float> out);
+void DensitySlices(const SolvedImage& solved, std::span<const double> phases, std::span<float> out);
 
 // Cumulative MESE distribution F_D([0, phi]) (thesis eq. 8.9), same layout as DensitySlices.
 // Every phase must lie in [0, 2*pi].
