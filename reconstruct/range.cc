@@ -2,12 +2,14 @@
 #include "transient/reconstruct/range.h"
 
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <cmath>
 #include <limits>
 #include <vector>
 
 #include "transient/reconstruct/mese.h"
+#include "transient/reconstruct/polynomial.h"
 
 namespace transient {
 namespace {
@@ -47,10 +49,15 @@ double OrderingPhase(double phase) {
 
 double MeseFirstPeakPhase(std::span<const Complex> q, double threshold, int search_bins) {
   assert(search_bins >= 3);
-  // Peaks of D are minima of the positive denominator |p|^2.
+  // Peaks of D are minima of the positive denominator |p|^2; on the grid only its value is
+  // needed, so p alone is evaluated there.
+  std::array<Complex, kMaxMoments> p_storage;
+  const std::span<Complex> p(p_storage.data(), q.size());
+  for (size_t j = 0; j < q.size(); ++j) p[j] = std::conj(q[j]);
   std::vector<double> r(search_bins);
   const double h = kTwoPi / search_bins;
-  for (int n = 0; n < search_bins; ++n) r[n] = EvaluateDenominator(q, n * h).value;
+  for (int n = 0; n < search_bins; ++n)
+    r[n] = std::norm(EvaluatePolynomial(p, std::polar(1.0, n * h)));
 
   struct Peak {
     double phase, denominator;

@@ -56,6 +56,20 @@ void BM_DensitySlices(benchmark::State& state) {
 }
 BENCHMARK(BM_DensitySlices)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
 
+void BM_CumulativeSlices(benchmark::State& state) {
+  const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
+  const SolvedImage solved = Solve(image, SolveOptions{});
+  const auto phases = UniformPhases(64);
+  std::vector<float> out(phases.size() * image.geometry.pixel_count());
+  for (auto _ : state) {
+    CumulativeSlices(solved, phases, out);
+    benchmark::ClobberMemory();
+  }
+  state.counters["evaluations/s"] = benchmark::Counter(
+      static_cast<double>(state.iterations() * out.size()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_CumulativeSlices)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
+
 void BM_MeseRange(benchmark::State& state) {
   const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
   const SolvedImage solved = Solve(image, SolveOptions{});
