@@ -3,6 +3,7 @@ BUILD_DIR ?= build
 ASAN_DIR ?= build-asan
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
+BENCH_ARGS ?=
 
 .PHONY: deps build test test-release test-sanitize demo bench clean
 
@@ -35,7 +36,7 @@ demo: build
 bench: deps
 	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_BENCHMARKS=ON $(CMAKE_FLAGS)
 	cmake --build $(BUILD_DIR) -j $(JOBS) --target transient_bench
-	$(BUILD_DIR)/tests/bench/transient_bench
+	$(BUILD_DIR)/tests/bench/transient_bench $(BENCH_ARGS)
 
 clean:
 	rm -rf $(BUILD_DIR) $(ASAN_DIR) out

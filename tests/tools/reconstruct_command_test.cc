@@ -56,7 +56,7 @@ constexpr double kZerothRelativeTolerance = 1e-6;
 // distance rho - 1 of q's roots from the unit circle. For the smooth measures of
 // ReconstructSmoothMeasures they are far out and float32 storage of D dominates (~1e-7 per
 // sample); for sparse measures at eps = 4e-3 the peaks are milliradians wide and no grid of a
-// reasonable size integrates them (see FILES.md), so the sparse tests do not sum densities.
+// reasonable size integrates them (see README.md), so the sparse tests do not sum densities.
 constexpr double kDensityMomentRelativeTolerance = 1e-5;
 // F_D([0, phi_{N-1}]) misses the mass of the last 1/N of the circle: the uniform share
 // (~eps * c_0) plus the tails of the peaks.

@@ -2,7 +2,7 @@
 """Writes the example moment file tests/data/example_moments.h5 with numpy and h5py.
 
 It is both the example of `make demo` and the proof that a file written by h5py in the
-documented layout (`transient-moments 1`, tools/transient/FILES.md) reconstructs correctly.
+documented layout (`transient-moments 1`, README.md) reconstructs correctly.
 
 The scene: 16x12 px, 2 frames, m = 3, base frequency 23 MHz. Every pixel holds a known
 measure of light over the phase phi = 4*pi*f*range/c:

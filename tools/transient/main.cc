@@ -46,7 +46,7 @@ CLI::App* AddReconstructCommand(CLI::App& app, ReconstructCommandLine& line) {
   CLI::App* command = app.add_subcommand(
       "reconstruct",
       "Reconstruct a moment file (transient-moments 1) into range, density, cumulative and "
-      "Pisarenko images (transient-reconstruction 1). Layouts: tools/transient/FILES.md.");
+      "Pisarenko images (transient-reconstruction 1). Layouts: README.md.");
   transient::tools::ReconstructArgs& args = line.args;
   command->add_option("input", args.input_path, "moment file to read (IN.h5)")->required();
   command

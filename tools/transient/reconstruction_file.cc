@@ -18,7 +18,7 @@ struct ProductSpec {
   const char* units;  // nullptr: no units attribute
 };
 
-// The one place that names the datasets; tools/transient/FILES.md documents the same table.
+// The one place that names the datasets; README.md documents the same table.
 constexpr ProductSpec kProducts[kProductCount] = {
     {Product::kRange, "/range_m", Planes::kOne, "m"},
     {Product::kZerothMoment, "/c0", Planes::kOne, nullptr},

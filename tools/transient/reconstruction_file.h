@@ -1,5 +1,5 @@
 // Writer of reconstruction files, format `transient-reconstruction 1` (layout in
-// tools/transient/FILES.md): per-frame product stacks, chunked and written one frame at a time.
+// README.md): per-frame product stacks, chunked and written one frame at a time.
 #pragma once
 
 #include <array>
