@@ -1,5 +1,5 @@
 // MomentFile reads what the documented layout holds, in every accepted storage variant.
-// The rejection of bad files is tested end to end in reconstruct_command_test.cc.
+// The rejection of bad files is tested end to end in reconstruct_bad_input_test.cc.
 #include "tools/transient/moment_file.h"
 
 #include <gmock/gmock.h>

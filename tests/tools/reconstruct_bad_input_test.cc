@@ -272,6 +272,24 @@ const BadInputCase kCases[] = {
      StatusCode::kInvalidArgument,
      {"out.h5: is a directory"},
      {"in.h5", "out.h5"}},
+    {"ImageLargerThanAnHdf5Chunk",
+     Edit([](const std::string& path) {
+       testing::ReplaceWithUnwrittenDataset(path, "/moments/real", {1, 4, 20000, 20000});
+       testing::ReplaceWithUnwrittenDataset(path, "/moments/imag", {1, 4, 20000, 20000});
+       testing::DeleteObject(path, "/moments/valid");
+     }),
+     StatusCode::kInvalidArgument,
+     {"/moments/real: expected at most 268435456 pixels per image, found 20000 x 20000"}},
+    // The layout is fine, so the temporary output exists when reading frame 0 fails: it must
+    // be removed again.
+    {"MomentDataInAMissingExternalFile",
+     Edit([](const std::string& path) {
+       const std::string missing = path + ".missing.raw";
+       testing::ReplaceWithExternalDataset(path, "/moments/real", {2, 4, 3, 4}, missing);
+       testing::ReplaceWithExternalDataset(path, "/moments/imag", {2, 4, 3, 4}, missing);
+     }),
+     StatusCode::kDataLoss,
+     {"in.h5: /moments/real: cannot read frame 0"}},
     {"OutputIsTheInput",
      [](const ScratchDirectory& dir, ReconstructArgs& args) {
        args.output_path = dir.File("./in.h5");
@@ -314,6 +332,23 @@ TEST(ReconstructBadInput, FileErrorsStartWithTheInputPathAsGiven) {
               StatusIs(absl::StatusCode::kInvalidArgument,
                        AllOf(StartsWith(dir.File("in.h5") + ": /moments/imag: "),
                              HasSubstr("missing dataset"))));
+}
+
+TEST(ReconstructBadInput, FrameLargerThanMemoryIsRefusedBeforeWritingAnything) {
+  // 16000 x 16000 px at m = 16: within the format's limits, but reconstructing one frame
+  // needs about 200 GiB. The file itself is a few kB: nothing of the data is written.
+  ScratchDirectory dir;
+  testing::WriteSmallMomentFile(dir.File("in.h5"));
+  testing::ReplaceWithUnwrittenDataset(dir.File("in.h5"), "/moments/real", {1, 17, 16000, 16000});
+  testing::ReplaceWithUnwrittenDataset(dir.File("in.h5"), "/moments/imag", {1, 17, 16000, 16000});
+  testing::DeleteObject(dir.File("in.h5"), "/moments/valid");
+  const ReconstructArgs args{.input_path = dir.File("in.h5"), .output_path = dir.File("out.h5")};
+  const absl::Status status = RunReconstruct(args).status();
+  EXPECT_THAT(status, StatusIs(absl::StatusCode::kResourceExhausted,
+                               AllOf(HasSubstr("in.h5: a 16000x16000 frame with m = 16 needs"),
+                                     HasSubstr("GiB of memory"))));
+  EXPECT_EQ(ExitCodeFor(status), kExitFailure);
+  EXPECT_THAT(dir.Entries(), ElementsAre("in.h5"));
 }
 
 TEST(ReconstructBadInput, UnreadableFileIsReportedAsSuch) {

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "tools/transient/h5.h"
@@ -126,6 +127,38 @@ void ReplaceDataset(const std::string& path, const std::string& object, hid_t fi
   const std::vector<double> zeros(count, 0.0);
   // HDF5 converts the doubles to whatever numeric file type is asked for.
   WriteDataset(file.get(), object.c_str(), file_type, H5T_NATIVE_DOUBLE, dims, zeros.data());
+}
+
+namespace {
+
+void CreateEmptyDataset(const std::string& path, const std::string& object,
+                        const std::vector<hsize_t>& dims, hid_t creation) {
+  Id file = OpenForWriting(path);
+  if (H5Lexists(file.get(), object.c_str(), H5P_DEFAULT) > 0) {
+    ASSERT_GE(H5Ldelete(file.get(), object.c_str(), H5P_DEFAULT), 0);
+  }
+  Id space = h5::Dataspace(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr));
+  Id dataset = h5::Dataset(H5Dcreate2(file.get(), object.c_str(), H5T_IEEE_F32LE, space.get(),
+                                      H5P_DEFAULT, creation, H5P_DEFAULT));
+  ASSERT_TRUE(dataset.valid()) << object;
+}
+
+}  // namespace
+
+void ReplaceWithUnwrittenDataset(const std::string& path, const std::string& object,
+                                 const std::vector<hsize_t>& dims) {
+  std::vector<hsize_t> chunk(dims.size(), 1);
+  for (size_t d = dims.size() - 2; d < dims.size(); ++d) chunk[d] = std::min<hsize_t>(dims[d], 256);
+  Id creation = h5::PropertyList(H5Pcreate(H5P_DATASET_CREATE));
+  ASSERT_GE(H5Pset_chunk(creation.get(), static_cast<int>(chunk.size()), chunk.data()), 0);
+  CreateEmptyDataset(path, object, dims, creation.get());
+}
+
+void ReplaceWithExternalDataset(const std::string& path, const std::string& object,
+                                const std::vector<hsize_t>& dims, const std::string& external) {
+  Id creation = h5::PropertyList(H5Pcreate(H5P_DATASET_CREATE));
+  ASSERT_GE(H5Pset_external(creation.get(), external.c_str(), 0, H5F_UNLIMITED), 0);
+  CreateEmptyDataset(path, object, dims, creation.get());
 }
 
 void SetStringAttribute(const std::string& path, const std::string& object, const std::string& name,

@@ -57,6 +57,14 @@ void DeleteObject(const std::string& path, const std::string& object);
 // Replaces (or creates) a dataset of the given file type and shape, filled with zeros.
 void ReplaceDataset(const std::string& path, const std::string& object, hid_t file_type,
                     const std::vector<hsize_t>& dims);
+// Replaces (or creates) a chunked float32 dataset of the given shape without writing any of
+// it: a file of a few kB can declare an image far larger than memory.
+void ReplaceWithUnwrittenDataset(const std::string& path, const std::string& object,
+                                 const std::vector<hsize_t>& dims);
+// Replaces (or creates) a float32 dataset stored in the external raw file `external` (which
+// need not exist): the layout checks pass, the first read fails.
+void ReplaceWithExternalDataset(const std::string& path, const std::string& object,
+                                const std::vector<hsize_t>& dims, const std::string& external);
 void SetStringAttribute(const std::string& path, const std::string& object, const std::string& name,
                         const std::string& value,
                         StoredString kind = StoredString::kVariableLength);

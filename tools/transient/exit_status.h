@@ -13,8 +13,8 @@ inline constexpr int kExitBadInput = 2;       // bad options, bad input file, un
 inline constexpr int kExitInterrupted = 130;  // SIGINT/SIGTERM (128 + SIGINT, as shells do)
 
 // kExitOk for OK; kExitInterrupted for Cancelled; kExitFailure for what the user cannot fix
-// by changing the input or the options (Internal, Unknown, Unavailable, ResourceExhausted,
-// DataLoss on write ...); kExitBadInput otherwise.
+// by changing the input or the options (Internal, Unknown, Unavailable, ResourceExhausted
+// ...); kExitBadInput otherwise (DataLoss is a corrupt input file).
 int ExitCodeFor(const absl::Status& status);
 
 // "error: <message>" on one line: any line break in the message becomes a space.

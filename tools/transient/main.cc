@@ -60,7 +60,7 @@ CLI::App* AddReconstructCommand(CLI::App& app, ReconstructCommandLine& line) {
       ->capture_default_str();
   command
       ->add_option("--bias-epsilon", args.bias_epsilon,
-                   "bias so that lambda_min >= E * c_0 (0 < E < 1)")
+                   "bias so that lambda_min >= E * c_0 (1e-6 <= E < 1)")
       ->capture_default_str();
   command
       ->add_option("--bias-mode", line.bias_mode,

@@ -147,10 +147,15 @@ absl::StatusOr<MomentFile> MomentFile::Open(const std::string& path) {
                                                    " moments (m = 1..", kMaxOrder,
                                                    ") in dimension 2, found ", moments));
   }
-  constexpr hsize_t kMaxSide = std::numeric_limits<int>::max();
-  if (height == 0 || width == 0 || height > kMaxSide || width > kMaxSide) {
+  if (height == 0 || width == 0) {
     return absl::InvalidArgumentError(absl::StrCat(
         real_where, ": expected a non-empty image, found height ", height, " and width ", width));
+  }
+  // One image plane is one HDF5 chunk of the output, and HDF5 caps chunks below 4 GiB.
+  if (height > kMaxImagePixels || width > kMaxImagePixels || height * width > kMaxImagePixels) {
+    return absl::InvalidArgumentError(absl::StrCat(real_where, ": expected at most ",
+                                                   kMaxImagePixels, " pixels per image, found ",
+                                                   height, " x ", width));
   }
   file.frames_ = static_cast<int64_t>(frames);
   file.order_ = static_cast<int>(moments) - 1;

@@ -1,17 +1,21 @@
 // The reconstruct command: read a frame, solve it, write its products, repeat.
 #include "tools/transient/reconstruct_command.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <new>
 #include <span>
 #include <system_error>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_replace.h"
 #include "tools/transient/moment_file.h"
 #include "tools/transient/reconstruction_file.h"
 #include "tools/transient/temporary_output.h"
@@ -286,8 +290,24 @@ std::string FormatSummary(const ReconstructSummary& summary) {
       summary.seconds, summary.output_path);
 }
 
-absl::StatusOr<ReconstructSummary> RunReconstruct(const ReconstructArgs& args,
-                                                  const ReconstructHooks& hooks) {
+namespace {
+
+// Memory one frame needs while it is reconstructed: the float32 moment planes, the solver's
+// double planes of c and q, Pisarenko's planes, a few single planes and one block of bins.
+uint64_t FrameWorkingBytes(int order, uint64_t pixels, uint64_t block_values) {
+  const uint64_t size = static_cast<uint64_t>(order) + 1;
+  return pixels * (size * 2 * sizeof(float) + size * 4 * sizeof(double) +
+                   (2 * size + 1) * sizeof(float) + 4 * sizeof(float) + 3) +
+         2 * block_values * sizeof(float);
+}
+
+uint64_t PhysicalMemoryBytes() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page_size = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && page_size > 0 ? static_cast<uint64_t>(pages) * page_size : 0;
+}
+
+absl::StatusOr<ReconstructSummary> ReconstructFile(const ReconstructArgs& args,
+                                                   const ReconstructHooks& hooks) {
   const auto start_time = std::chrono::steady_clock::now();
   if (absl::Status status = args.Validate(); !status.ok()) return status;
 
@@ -302,6 +322,17 @@ absl::StatusOr<ReconstructSummary> RunReconstruct(const ReconstructArgs& args,
     return InFile(args.input_path, status);
   }
   if (absl::Status status = CheckOutputIsNotInput(args); !status.ok()) return status;
+  const uint64_t pixels = static_cast<uint64_t>(input->geometry().pixel_count());
+  const uint64_t block_values =
+      std::max<uint64_t>(pixels, std::min<uint64_t>(args.max_block_values, pixels * args.bins));
+  const uint64_t needed = FrameWorkingBytes(input->order(), pixels, block_values);
+  if (const uint64_t available = PhysicalMemoryBytes(); available > 0 && needed > available) {
+    return absl::ResourceExhaustedError(absl::StrFormat(
+        "%s: a %dx%d frame with m = %d needs about %.1f GiB of memory to reconstruct; this "
+        "machine has %.1f GiB",
+        args.input_path, input->geometry().width, input->geometry().height, input->order(),
+        needed / 1073741824.0, available / 1073741824.0));
+  }
   absl::StatusOr<TemporaryOutput> output = TemporaryOutput::Prepare(args.output_path);
   if (!output.ok()) return output.status();
 
@@ -350,6 +381,10 @@ absl::StatusOr<ReconstructSummary> RunReconstruct(const ReconstructArgs& args,
     }
     if (hooks.on_frame) hooks.on_frame(k + 1, frames->count);
   }
+  // An interrupt during the last frame still means "stop": nothing is committed.
+  if (hooks.cancel != nullptr && hooks.cancel->load()) {
+    return absl::CancelledError("interrupted; no output written");
+  }
   if (absl::Status status = file->Close(); !status.ok()) return status;
   if (absl::Status status = output->Commit(); !status.ok()) return status;
 
@@ -360,6 +395,29 @@ absl::StatusOr<ReconstructSummary> RunReconstruct(const ReconstructArgs& args,
   summary.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
   return summary;
+}
+
+}  // namespace
+
+absl::StatusOr<ReconstructSummary> RunReconstruct(const ReconstructArgs& args,
+                                                  const ReconstructHooks& hooks) {
+  absl::StatusOr<ReconstructSummary> result;
+  // Exceptions (an allocation that fails, a library that throws) unwind through
+  // ReconstructFile, so its TemporaryOutput removes the partial file; they become statuses.
+  try {
+    result = ReconstructFile(args, hooks);
+  } catch (const std::bad_alloc&) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat(args.input_path, ": out of memory while reconstructing; no output written"));
+  } catch (const std::exception& e) {
+    return absl::InternalError(
+        absl::StrCat(args.input_path, ": ", e.what(), "; no output written"));
+  }
+  if (result.ok()) return result;
+  // Messages about the output name the file the user asked for, not its temporary name.
+  const std::string temporary = absl::StrCat(args.output_path, ".tmp-", ::getpid());
+  return absl::Status(result.status().code(), absl::StrReplaceAll(result.status().message(),
+                                                                  {{temporary, args.output_path}}));
 }
 
 }  // namespace transient::tools

@@ -159,11 +159,14 @@ absl::StatusOr<ReconstructionFile> ReconstructionFile::Create(const std::string&
     h5::Id space =
         h5::Dataspace(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr));
     h5::Id creation = h5::PropertyList(H5Pcreate(H5P_DATASET_CREATE));
-    H5Pset_chunk(creation.get(), static_cast<int>(chunk.size()), chunk.data());
     const float nan = std::numeric_limits<float>::quiet_NaN();
     const uint8_t zero = 0;
-    H5Pset_fill_value(creation.get(), is_flags ? H5T_NATIVE_UINT8 : H5T_NATIVE_FLOAT,
-                      is_flags ? static_cast<const void*>(&zero) : &nan);
+    if (H5Pset_chunk(creation.get(), static_cast<int>(chunk.size()), chunk.data()) < 0 ||
+        H5Pset_fill_value(creation.get(), is_flags ? H5T_NATIVE_UINT8 : H5T_NATIVE_FLOAT,
+                          is_flags ? static_cast<const void*>(&zero) : &nan) < 0) {
+      return absl::InternalError(absl::StrCat(path, ": cannot set up chunks of ",
+                                              h5::DimensionsToString(chunk), " for ", spec.path));
+    }
     h5::Id dataset = h5::Dataset(H5Dcreate2(id, spec.path, file_type, space.get(), H5P_DEFAULT,
                                             creation.get(), H5P_DEFAULT));
     if (!dataset.valid()) {

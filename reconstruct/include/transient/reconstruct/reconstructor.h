@@ -25,7 +25,7 @@ enum class ZerothMoment {
 
 // Bits of the per-pixel flags plane. A pixel with kInvalidInput has no products (NaN).
 enum PixelFlag : uint8_t {
-  kFlagBiased = 1 << 0,        // biasing (or c_0 estimation) changed the moments
+  kFlagBiased = 1 << 0,        // biasing changed the moments (an estimated c_0 alone does not)
   kFlagInvalidInput = 1 << 1,  // NaN/Inf, c_0 <= 0, marked invalid, or not repairable
   kFlagNoReturn = 1 << 2,      // no peak / return above the relative threshold
 };
