@@ -215,6 +215,9 @@ absl::StatusOr<MomentFile> MomentFile::Open(const std::string& path) {
           where, ": expected shape [frames, height, width] = ", h5::DimensionsToString(expected),
           ", found ", h5::DimensionsToString(dims)));
     }
+    if (absl::Status status = CheckFiltersAvailable(valid->get(), where); !status.ok()) {
+      return status;
+    }
     file.valid_ = *std::move(valid);
   }
   return file;
