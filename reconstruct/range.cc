@@ -56,9 +56,17 @@ double MeseFirstPeakPhase(std::span<const Complex> q, double threshold, int sear
   for (size_t j = 0; j < q.size(); ++j) p[j] = std::conj(q[j]);
   std::vector<double> r(search_bins);
   const double h = kTwoPi / search_bins;
-  for (int n = 0; n < search_bins; ++n)
+  for (int n = 0; n < search_bins; ++n) {
     r[n] = std::norm(EvaluatePolynomial(p, std::polar(1.0, n * h)));
+  }
+  return MeseFirstPeakFromGrid(q, threshold, r);
+}
 
+double MeseFirstPeakFromGrid(std::span<const Complex> q, double threshold,
+                             std::span<const double> r) {
+  const int search_bins = static_cast<int>(r.size());
+  assert(search_bins >= 3);
+  const double h = kTwoPi / search_bins;
   struct Peak {
     double phase, denominator;
   };

@@ -23,6 +23,12 @@ double OrderingPhase(double phase);
 // (sub-bin accuracy). Returns NaN when there is no local maximum (a flat density).
 double MeseFirstPeakPhase(std::span<const Complex> q, double threshold, int search_bins);
 
+// The same from a grid computed elsewhere: r[n] = |sum_j conj(q_j) exp(i j phi_n)|^2 at
+// phi_n = 2*pi*n/r.size() (any evaluation accurate to ~1e-9 relative will do; minima are then
+// refined from q).
+double MeseFirstPeakFromGrid(std::span<const Complex> q, double threshold,
+                             std::span<const double> r);
+
 // Phase (as OrderingPhase) of the first return with weight >= threshold * largest weight;
 // NaN when there is no return. Its index is written to `index` when non-null (-1 if none).
 double PisarenkoFirstReturnPhase(const PisarenkoEstimate& estimate, double threshold,

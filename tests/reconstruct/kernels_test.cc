@@ -1,0 +1,208 @@
+// The optimized kernels against the scalar reference, on random valid frames, with the
+// accuracy contract of the optimized kernels: density relative error <= 1e-3 wherever
+// D >= 1e-3 max D, cumulative error <= 1e-4 c_0, range within 0.1 mm, identical flags.
+#include "transient/reconstruct/kernels.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "test_measures.h"
+
+namespace transient {
+namespace {
+
+constexpr double kDensityTolerance = 1e-3;      // relative, where D >= 1e-3 max D
+constexpr double kDensityFloor = 1e-3;          // of the pixel's largest sample
+constexpr double kCumulativeTolerance = 1e-4;   // relative to c_0
+constexpr double kRangeTolerance = 1e-4;        // metres
+constexpr ImageGeometry kGeometry{37, 23};      // not a multiple of any block or vector size
+
+// Pixels with 1..m+1 returns, a uniform part from 0 to 0.2, noise that makes some of them
+// need biasing, and a few invalid ones (NaN, no light, masked).
+MomentImage RandomFrame(int m, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  MomentImage image(kGeometry, m);
+  const int64_t pixels = kGeometry.pixel_count();
+  image.valid.assign(pixels, 1);
+  std::uniform_real_distribution<double> uniform(0.0, 0.2);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  for (int64_t p = 0; p < pixels; ++p) {
+    const int count = 1 + static_cast<int>(rng() % (m + 1));
+    const auto measure = testing::RandomSparseMeasure(count, 0.05, uniform(rng), rng);
+    std::vector<Complex> c = measure.Moments(m);
+    for (int j = 1; j <= m; ++j) c[j] += Complex(noise(rng), noise(rng));
+    for (int j = 0; j <= m; ++j) {
+      image.real_plane(j)[p] = static_cast<float>(c[j].real());
+      image.imag_plane(j)[p] = static_cast<float>(c[j].imag());
+    }
+  }
+  image.real_plane(1)[3] = std::nanf("");
+  image.real_plane(0)[7] = 0.0f;
+  image.valid[11] = 0;
+  return image;
+}
+
+class Kernels : public ::testing::TestWithParam<int> {
+ protected:
+  void SetUp() override { SetKernelOptions({.kind = KernelKind::kOptimized, .threads = 2}); }
+  void TearDown() override { SetKernelOptions({}); }
+};
+
+TEST_P(Kernels, SolveMatchesTheReferenceWithIdenticalFlags) {
+  const int m = GetParam();
+  const MomentImage image = RandomFrame(m, 100 + m);
+  const SolvedImage expected = reference::Solve(image, SolveOptions{});
+  const SolvedImage got = optimized::Solve(image, SolveOptions{});
+  ASSERT_EQ(got.flags, expected.flags);
+  int biased = 0;
+  for (uint8_t f : got.flags) biased += (f & kFlagBiased) != 0;
+  EXPECT_GT(biased, 0) << "the frame should exercise biasing";
+  EXPECT_LT(biased, kGeometry.pixel_count()) << "and the quick check";
+  for (size_t i = 0; i < got.q_real.size(); ++i) {
+    if (std::isnan(expected.q_real[i])) {
+      EXPECT_TRUE(std::isnan(got.q_real[i]));
+      continue;
+    }
+    EXPECT_DOUBLE_EQ(got.c_real[i], expected.c_real[i]);
+    EXPECT_DOUBLE_EQ(got.q_real[i], expected.q_real[i]);
+    EXPECT_DOUBLE_EQ(got.q_imag[i], expected.q_imag[i]);
+  }
+}
+
+TEST_P(Kernels, DensityMeetsTheAccuracyContract) {
+  const int m = GetParam();
+  const SolvedImage solved = reference::Solve(RandomFrame(m, 200 + m), SolveOptions{});
+  const auto phases = UniformPhases(1000);
+  const int64_t pixels = kGeometry.pixel_count();
+  std::vector<float> expected(phases.size() * pixels), got(expected.size());
+  reference::DensitySlices(solved, phases, expected);
+  optimized::DensitySlices(solved, phases, got);
+  double worst = 0.0;
+  for (int64_t p = 0; p < pixels; ++p) {
+    float peak = 0.0f;
+    for (size_t n = 0; n < phases.size(); ++n) peak = std::max(peak, expected[n * pixels + p]);
+    for (size_t n = 0; n < phases.size(); ++n) {
+      const float e = expected[n * pixels + p], g = got[n * pixels + p];
+      if (std::isnan(e)) {
+        EXPECT_TRUE(std::isnan(g)) << "pixel " << p;
+        continue;
+      }
+      if (e < kDensityFloor * peak) continue;
+      worst = std::max(worst, std::abs(g - e) / static_cast<double>(e));
+    }
+  }
+  EXPECT_LE(worst, kDensityTolerance) << "m = " << m;
+  RecordProperty("worst_relative_density_error", std::to_string(worst));
+}
+
+TEST_P(Kernels, CumulativeBoundsAndPisarenkoMatchTheReference) {
+  const int m = GetParam();
+  const SolvedImage solved = reference::Solve(RandomFrame(m, 300 + m), SolveOptions{});
+  const auto phases = UniformPhases(17);
+  const int64_t pixels = kGeometry.pixel_count();
+  std::vector<float> expected(phases.size() * pixels), got(expected.size());
+  reference::CumulativeSlices(solved, phases, expected);
+  optimized::CumulativeSlices(solved, phases, got);
+  for (size_t i = 0; i < got.size(); ++i) {
+    const int64_t p = static_cast<int64_t>(i) % pixels;
+    if (std::isnan(expected[i])) {
+      EXPECT_TRUE(std::isnan(got[i]));
+    } else {
+      EXPECT_NEAR(got[i], expected[i], kCumulativeTolerance * solved.c0(p));
+    }
+  }
+  std::vector<float> lower(got.size()), upper(got.size()), ref_lower(got.size()),
+      ref_upper(got.size());
+  reference::BoundSlices(solved, 0.8, phases, ref_lower, ref_upper);
+  optimized::BoundSlices(solved, 0.8, phases, lower, upper);
+  for (size_t i = 0; i < got.size(); ++i) {
+    EXPECT_TRUE(lower[i] == ref_lower[i] || (std::isnan(lower[i]) && std::isnan(ref_lower[i])));
+    EXPECT_TRUE(upper[i] == ref_upper[i] || (std::isnan(upper[i]) && std::isnan(ref_upper[i])));
+  }
+  const PisarenkoImage a = reference::EstimatePisarenko(solved);
+  const PisarenkoImage b = optimized::EstimatePisarenko(solved);
+  for (size_t i = 0; i < a.phase.size(); ++i) {
+    EXPECT_TRUE(a.phase[i] == b.phase[i] || (std::isnan(a.phase[i]) && std::isnan(b.phase[i])));
+    EXPECT_TRUE(a.weight[i] == b.weight[i] ||
+                (std::isnan(a.weight[i]) && std::isnan(b.weight[i])));
+  }
+}
+
+TEST_P(Kernels, RangeWithinATenthOfAMillimetreWithIdenticalFlags) {
+  const int m = GetParam();
+  const SolvedImage solved = reference::Solve(RandomFrame(m, 400 + m), SolveOptions{});
+  const int64_t pixels = kGeometry.pixel_count();
+  for (double threshold : {0.0, 0.1, 0.5}) {
+    RangeOptions options;
+    options.threshold = threshold;
+    std::vector<float> expected(pixels), got(pixels);
+    std::vector<uint8_t> expected_flags = solved.flags, got_flags = solved.flags;
+    reference::MeseRange(solved, options, expected, expected_flags);
+    optimized::MeseRange(solved, options, got, got_flags);
+    EXPECT_EQ(got_flags, expected_flags);
+    for (int64_t p = 0; p < pixels; ++p) {
+      if (std::isnan(expected[p])) {
+        EXPECT_TRUE(std::isnan(got[p])) << p;
+      } else {
+        EXPECT_NEAR(got[p], expected[p], kRangeTolerance) << "pixel " << p << " m = " << m;
+      }
+    }
+  }
+}
+
+TEST_P(Kernels, ResultsDoNotDependOnTheThreadCount) {
+  const int m = GetParam();
+  const MomentImage image = RandomFrame(m, 500 + m);
+  const auto phases = UniformPhases(64);
+  std::vector<std::vector<float>> density(2);
+  std::vector<std::vector<float>> range(2);
+  for (int threads : {1, 2}) {
+    SetKernelOptions({.kind = KernelKind::kOptimized, .threads = threads});
+    const SolvedImage solved = Solve(image, SolveOptions{});
+    density[threads - 1].resize(phases.size() * kGeometry.pixel_count());
+    DensitySlices(solved, phases, density[threads - 1]);
+    range[threads - 1].resize(kGeometry.pixel_count());
+    std::vector<uint8_t> flags = solved.flags;
+    MeseRange(solved, RangeOptions{}, range[threads - 1], flags);
+  }
+  for (size_t i = 0; i < density[0].size(); ++i) {
+    EXPECT_TRUE(density[0][i] == density[1][i] ||
+                (std::isnan(density[0][i]) && std::isnan(density[1][i])));
+  }
+  for (size_t i = 0; i < range[0].size(); ++i) {
+    EXPECT_TRUE(range[0][i] == range[1][i] || (std::isnan(range[0][i]) && std::isnan(range[1][i])));
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Orders, Kernels, ::testing::Values(1, 3, 4, 8, 16),
+                         [](const ::testing::TestParamInfo<int>& info) {
+                           return absl::StrCat("m", info.param);
+                         });
+
+TEST(KernelSelection, TheImageApiRunsTheChosenKind) {
+  const MomentImage image = RandomFrame(3, 600);
+  const auto phases = UniformPhases(32);
+  const int64_t pixels = kGeometry.pixel_count();
+  const SolvedImage solved = reference::Solve(image, SolveOptions{});
+  std::vector<float> reference_out(phases.size() * pixels), optimized_out(reference_out.size()),
+      api_out(reference_out.size());
+  reference::DensitySlices(solved, phases, reference_out);
+  optimized::DensitySlices(solved, phases, optimized_out);
+  ASSERT_NE(reference_out, optimized_out) << "the two kinds must be distinguishable here";
+  SetKernelOptions({.kind = KernelKind::kReference});
+  DensitySlices(solved, phases, api_out);
+  EXPECT_EQ(api_out.size(), reference_out.size());
+  for (size_t i = 0; i < api_out.size(); ++i) {
+    EXPECT_TRUE(api_out[i] == reference_out[i] ||
+                (std::isnan(api_out[i]) && std::isnan(reference_out[i])));
+  }
+  SetKernelOptions({});
+  EXPECT_EQ(GetKernelOptions().kind, KernelKind::kOptimized);
+}
+
+}  // namespace
+}  // namespace transient
