@@ -4,6 +4,7 @@
 
 #include <cassert>
 #include <cmath>
+#include <limits>
 
 #include "absl/strings/str_cat.h"
 #include "transient/reconstruct/kernels.h"
@@ -105,6 +106,17 @@ void PisarenkoRange(const PisarenkoImage& pisarenko, const RangeOptions& options
                     std::span<float> range_m, std::span<uint8_t> flags) {
   // Per pixel this is a scan of at most m weights: memory-bound, no optimized variant.
   reference::PisarenkoRange(pisarenko, options, range_m, flags);
+}
+
+void Amplitude(const SolvedImage& solved, std::span<float> out) {
+  // One complex modulus per pixel: memory-bound, a single implementation.
+  const int64_t pixels = solved.geometry.pixel_count();
+  assert(out.size() == static_cast<size_t>(pixels));
+  for (int64_t p = 0; p < pixels; ++p) {
+    out[p] = solved.valid(p) ? static_cast<float>(std::hypot(solved.c_real[pixels + p],
+                                                             solved.c_imag[pixels + p]))
+                             : std::numeric_limits<float>::quiet_NaN();
+  }
 }
 
 void SeparateDirectIndirect(const PisarenkoImage& pisarenko, double threshold,

@@ -159,6 +159,19 @@ TEST(Reconstructor, RangeOfEveryPixelIsItsFirstReturn) {
   }
 }
 
+TEST(Reconstructor, AmplitudeIsTheFirstHarmonicsModulus) {
+  MomentImage image({2, 1}, 2);
+  image.real_plane(0)[0] = 2.0f;
+  image.real_plane(1)[0] = 0.6f;
+  image.imag_plane(1)[0] = -0.8f;
+  image.real_plane(0)[1] = std::numeric_limits<float>::quiet_NaN();
+  const SolvedImage solved = Solve(image, SolveOptions{});
+  std::vector<float> amplitude(2);
+  Amplitude(solved, amplitude);
+  EXPECT_FLOAT_EQ(amplitude[0], 1.0f);
+  EXPECT_TRUE(std::isnan(amplitude[1]));
+}
+
 TEST(Reconstructor, NoReturnIsFlaggedForAFlatResponse) {
   MomentImage image({1, 1}, 2);
   image.real_plane(0)[0] = 1.0f;  // all light uniform

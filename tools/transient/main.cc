@@ -10,6 +10,7 @@
 #include <string>
 
 #include "absl/status/status.h"
+#include "tools/transient/bench_command.h"
 #include "tools/transient/exit_status.h"
 #include "tools/transient/progress_bar.h"
 #include "tools/transient/reconstruct_command.h"
@@ -133,6 +134,48 @@ int RunReconstructCommand(ReconstructCommandLine& line) {
   return 0;
 }
 
+struct BenchCommandLine {
+  transient::tools::BenchArgs args;
+};
+
+CLI::App* AddBenchCommand(CLI::App& app, BenchCommandLine& line) {
+  CLI::App* command = app.add_subcommand(
+      "bench",
+      "Time the optimized kernels against the scalar reference in one run (163x120 and "
+      "640x480 synthetic frames) and print their ratio.");
+  command->add_option("--json", line.args.json_path, "also write the table as JSON here");
+  command->add_option("--min-time", line.args.min_seconds, "seconds per measurement")
+      ->capture_default_str();
+  command->add_option("--threads", line.args.threads, "thread counts of the optimized kernels")
+      ->capture_default_str();
+  return command;
+}
+
+int RunBenchCommand(const BenchCommandLine& line) {
+  std::fprintf(stderr, "transient bench: reference vs optimized, one row at a time...\n");
+  absl::StatusOr<std::vector<transient::tools::BenchRow>> rows =
+      transient::tools::RunBench(line.args, [](const transient::tools::BenchRow& row) {
+        std::fprintf(stderr, "  %s, m = %d, %dx%d, %d thread(s): %.1fx\n", row.kernel.c_str(),
+                     row.order, row.width, row.height, row.threads, row.ratio());
+      });
+  if (!rows.ok()) {
+    std::cerr << ErrorLine(rows.status()) << "\n";
+    return ExitCodeFor(rows.status());
+  }
+  std::cout << transient::tools::FormatBenchTable(*rows);
+  if (!line.args.json_path.empty()) {
+    std::FILE* file = std::fopen(line.args.json_path.c_str(), "w");
+    const std::string json = transient::tools::FormatBenchJson(*rows);
+    if (file == nullptr || std::fwrite(json.data(), 1, json.size(), file) != json.size() ||
+        std::fclose(file) != 0) {
+      std::cerr << "error: " << line.args.json_path << ": cannot write the JSON file\n";
+      return kExitBadInput;
+    }
+    std::cout << "wrote " << line.args.json_path << "\n";
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -142,6 +185,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   ReconstructCommandLine reconstruct_line;
   CLI::App* reconstruct = AddReconstructCommand(app, reconstruct_line);
+  BenchCommandLine bench_line;
+  CLI::App* bench = AddBenchCommand(app, bench_line);
 
   try {
     app.parse(argc, argv);
@@ -153,5 +198,6 @@ int main(int argc, char** argv) {
     return kExitBadInput;
   }
   if (reconstruct->parsed()) return RunReconstructCommand(reconstruct_line);
+  if (bench->parsed()) return RunBenchCommand(bench_line);
   return kExitBadInput;  // unreachable: exactly one subcommand is required
 }

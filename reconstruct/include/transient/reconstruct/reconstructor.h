@@ -104,6 +104,10 @@ void MeseRange(const SolvedImage& solved, const RangeOptions& options, std::span
 void PisarenkoRange(const PisarenkoImage& pisarenko, const RangeOptions& options,
                     std::span<float> range_m, std::span<uint8_t> flags);
 
+// Amplitude |c_1|: the modulus of the first harmonic, what AMCW cameras report as amplitude
+// (sensor units); NaN for invalid pixels. `out` has one entry per pixel.
+void Amplitude(const SolvedImage& solved, std::span<float> out);
+
 // Direct/indirect separation (thesis §8.4.1): direct = weight of the first return above the
 // threshold, indirect = sum of the other returns' weights (the uniform component is neither).
 void SeparateDirectIndirect(const PisarenkoImage& pisarenko, double threshold,

@@ -1,0 +1,173 @@
+// Measurements of `transient bench`. Each row times the reference kernel and the optimized
+// kernel on the same frame in the same run; the reference runs single-threaded (it has no
+// threads), the optimized one with the row's thread count.
+#include "tools/transient/bench_command.h"
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <random>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "transient/reconstruct/kernels.h"
+
+namespace transient::tools {
+namespace {
+
+// A frame whose pixels hold three returns and a small uniform component, like the mirrors
+// scene of thesis fig. 8.7, with a little noise so that some pixels need biasing.
+MomentImage MakeFrame(ImageGeometry geometry, int m) {
+  MomentImage image(geometry, m);
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<double> phase(0.2, 5.5), weight(0.2, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.005);
+  std::vector<Complex> c(m + 1);
+  for (int64_t p = 0; p < geometry.pixel_count(); ++p) {
+    const std::vector<double> phases = {phase(rng), phase(rng), phase(rng)};
+    const std::vector<double> weights = {weight(rng), weight(rng), weight(rng)};
+    DiracMoments(phases, weights, c);
+    c[0] += 0.05;
+    for (int j = 0; j <= m; ++j) {
+      const Complex n = j == 0 ? Complex(0.0) : Complex(noise(rng), noise(rng));
+      image.real_plane(j)[p] = static_cast<float>((c[j] + n).real());
+      image.imag_plane(j)[p] = static_cast<float>((c[j] + n).imag());
+    }
+  }
+  return image;
+}
+
+// Seconds per call of `run`, repeated until `min_seconds` have passed (at least once).
+double SecondsPerCall(const std::function<void()>& run, double min_seconds) {
+  using Clock = std::chrono::steady_clock;
+  int calls = 0;
+  const auto start = Clock::now();
+  double elapsed = 0.0;
+  do {
+    run();
+    ++calls;
+    elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  } while (elapsed < min_seconds);
+  return elapsed / calls;
+}
+
+// Times `run` with the reference kernels and with the optimized ones at each thread count.
+void Measure(const BenchArgs& args, const std::string& kernel, int m, ImageGeometry geometry,
+             const std::string& unit, double units_per_call, const std::function<void()>& run,
+             std::vector<BenchRow>* rows, void (*progress)(const BenchRow&)) {
+  SetKernelOptions({.kind = KernelKind::kReference});
+  const double reference = units_per_call / SecondsPerCall(run, args.min_seconds);
+  for (int threads : args.threads) {
+    SetKernelOptions({.kind = KernelKind::kOptimized, .threads = threads});
+    const double optimized = units_per_call / SecondsPerCall(run, args.min_seconds);
+    rows->push_back({.kernel = kernel,
+                     .order = m,
+                     .width = geometry.width,
+                     .height = geometry.height,
+                     .threads = threads,
+                     .unit = unit,
+                     .reference = reference,
+                     .optimized = optimized});
+    if (progress != nullptr) progress(rows->back());
+  }
+  SetKernelOptions({});
+}
+
+}  // namespace
+
+absl::Status BenchArgs::Validate() const {
+  if (!(min_seconds > 0.0 && min_seconds <= 60.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--min-time = ", min_seconds, ": expected 0 < seconds <= 60"));
+  }
+  if (threads.empty()) return absl::InvalidArgumentError("--threads: expected at least one");
+  for (int t : threads) {
+    if (t < 1 || t > 256) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--threads = ", t, ": expected 1 <= threads <= 256"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::vector<BenchRow>> RunBench(const BenchArgs& args,
+                                               void (*progress)(const BenchRow&)) {
+  if (absl::Status status = args.Validate(); !status.ok()) return status;
+  std::vector<BenchRow> rows;
+  const ImageGeometry pmd{163, 120}, vga{640, 480};
+  const double pmd_pixels = static_cast<double>(pmd.pixel_count());
+
+  for (int m : {3, 4, 8}) {
+    const MomentImage image = MakeFrame(pmd, m);
+    const SolvedImage solved = reference::Solve(image, SolveOptions{});
+    const std::vector<double> phases = UniformPhases(256);
+    std::vector<float> out(phases.size() * pmd.pixel_count());
+    Measure(args, "density (256 phases)", m, pmd, "evaluations/s", out.size(),
+            [&] { DensitySlices(solved, phases, out); }, &rows, progress);
+    Measure(args, "solve (check, bias, Levinson)", m, pmd, "pixels/s", pmd_pixels,
+            [&] { (void)Solve(image, SolveOptions{}); }, &rows, progress);
+    std::vector<float> range(pmd.pixel_count());
+    std::vector<uint8_t> flags(pmd.pixel_count());
+    Measure(args, "range (MESE first peak)", m, pmd, "pixels/s", pmd_pixels,
+            [&] { MeseRange(solved, RangeOptions{}, range, flags); }, &rows, progress);
+    Measure(args, "Pisarenko", m, pmd, "pixels/s", pmd_pixels,
+            [&] { (void)EstimatePisarenko(solved); }, &rows, progress);
+  }
+  {
+    const MomentImage image = MakeFrame(pmd, 3);
+    const SolvedImage solved = reference::Solve(image, SolveOptions{});
+    const std::vector<double> phases = UniformPhases(64);
+    std::vector<float> out(phases.size() * pmd.pixel_count());
+    Measure(args, "cumulative (64 phases)", 3, pmd, "evaluations/s", out.size(),
+            [&] { CumulativeSlices(solved, phases, out); }, &rows, progress);
+  }
+  // The whole per-frame job: moments in; range, amplitude and 64 density slices out.
+  for (auto [geometry, m] : {std::pair{pmd, 3}, std::pair{vga, 4}}) {
+    const MomentImage image = MakeFrame(geometry, m);
+    const std::vector<double> phases = UniformPhases(64);
+    const int64_t pixels = geometry.pixel_count();
+    std::vector<float> range(pixels), amplitude(pixels), slices(phases.size() * pixels);
+    std::vector<uint8_t> flags(pixels);
+    Measure(args, "pipeline (range, amplitude, 64 slices)", m, geometry, "frames/s", 1.0,
+            [&] {
+              const SolvedImage solved = Solve(image, SolveOptions{});
+              flags = solved.flags;
+              MeseRange(solved, RangeOptions{}, range, flags);
+              Amplitude(solved, amplitude);
+              DensitySlices(solved, phases, slices);
+            },
+            &rows, progress);
+  }
+  return rows;
+}
+
+std::string FormatBenchTable(const std::vector<BenchRow>& rows) {
+  std::string table = absl::StrFormat("%-40s %3s %9s %7s %14s %14s %8s  %s\n", "kernel", "m",
+                                      "size", "threads", "reference", "optimized", "ratio",
+                                      "unit");
+  for (const BenchRow& row : rows) {
+    absl::StrAppendFormat(&table, "%-40s %3d %9s %7d %14.4g %14.4g %7.1fx  %s\n", row.kernel,
+                          row.order, absl::StrCat(row.width, "x", row.height), row.threads,
+                          row.reference, row.optimized, row.ratio(), row.unit);
+  }
+  return table;
+}
+
+std::string FormatBenchJson(const std::vector<BenchRow>& rows) {
+  std::string json = "{\n  \"rows\": [\n";
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const BenchRow& row = rows[i];
+    absl::StrAppendFormat(&json,
+                          "    {\"kernel\": \"%s\", \"m\": %d, \"width\": %d, \"height\": %d, "
+                          "\"threads\": %d, \"unit\": \"%s\", \"reference\": %.6g, "
+                          "\"optimized\": %.6g, \"ratio\": %.4g}%s\n",
+                          row.kernel, row.order, row.width, row.height, row.threads, row.unit,
+                          row.reference, row.optimized, row.ratio(),
+                          i + 1 < rows.size() ? "," : "");
+  }
+  json += "  ]\n}\n";
+  return json;
+}
+
+}  // namespace transient::tools
