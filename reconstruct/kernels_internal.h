@@ -10,8 +10,10 @@
 
 namespace transient::internal {
 
-// Outputs sized for `moments` / `solved`, every value NaN and every flag 0.
-SolvedImage AllocateSolved(const MomentImage& moments);
+// Sizes `solved` for `moments`, reusing its buffers, with every flag 0; SolvePixels writes
+// every value of its pixels (NaN for invalid ones), so nothing else is initialised here.
+void PrepareSolved(const MomentImage& moments, SolvedImage* solved);
+// Pisarenko output sized for `solved`, every value NaN.
 PisarenkoImage AllocatePisarenko(const SolvedImage& solved);
 
 // Validation, zeroth moment, biasing and Levinson. With `quick_bias_check`, a pixel whose C(c)

@@ -56,8 +56,8 @@ struct SeriesPlanes {
   std::vector<float> scale;             // q_0 / (2 pi)
 };
 
-SeriesPlanes MakeSeries(const SolvedImage& solved) {
-  SeriesPlanes s;
+// Fills `s` (reusing its buffers) for `solved`.
+void MakeSeries(const SolvedImage& solved, SeriesPlanes& s) {
   s.order = solved.order;
   s.pixels = solved.geometry.pixel_count();
   const int m = s.order;
@@ -85,7 +85,6 @@ SeriesPlanes MakeSeries(const SolvedImage& solved) {
       s.scale[p] = static_cast<float>(q[0].real() / kTwoPi);
     }
   });
-  return s;
 }
 
 // cos(k phi_n), sin(k phi_n) for k = 1..m: table[n * m + k - 1].
@@ -135,13 +134,12 @@ __attribute__((target_clones("arch=x86-64-v3", "default"))) void DensityBlock(
 
 }  // namespace
 
-SolvedImage Solve(const MomentImage& moments, const SolveOptions& options) {
+void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage* solved) {
   assert(moments.Validate().ok() && options.Validate().ok());
-  SolvedImage solved = internal::AllocateSolved(moments);
+  internal::PrepareSolved(moments, solved);
   ParallelBlocks(moments.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
-    internal::SolvePixels(moments, options, /*quick_bias_check=*/true, begin, end, &solved);
+    internal::SolvePixels(moments, options, /*quick_bias_check=*/true, begin, end, solved);
   });
-  return solved;
 }
 
 PisarenkoImage EstimatePisarenko(const SolvedImage& solved) {
@@ -156,8 +154,15 @@ void DensitySlices(const SolvedImage& solved, std::span<const double> phases,
                    std::span<float> out) {
   const int64_t pixels = solved.geometry.pixel_count();
   assert(out.size() == phases.size() * pixels);
-  const SeriesPlanes series = MakeSeries(solved);
-  std::vector<double> cosines, sines;
+  // Per calling thread, so that a stream of frames reuses (rather than re-faults) them. The
+  // worker threads must see the caller's buffers: a lambda does not capture a thread_local
+  // (it would name the worker's own), so they are passed on by reference.
+  thread_local SeriesPlanes series_buffer;
+  thread_local std::vector<double> cosine_buffer, sine_buffer;
+  SeriesPlanes& series = series_buffer;
+  std::vector<double>& cosines = cosine_buffer;
+  std::vector<double>& sines = sine_buffer;
+  MakeSeries(solved, series);
   MakeTables(phases, solved.order, &cosines, &sines);
   ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {
     DensityBlock(series, cosines.data(), sines.data(), static_cast<int64_t>(phases.size()),
@@ -187,7 +192,7 @@ void MeseRange(const SolvedImage& solved, const RangeOptions& options, std::span
   const int64_t pixels = solved.geometry.pixel_count();
   assert(range_m.size() == static_cast<size_t>(pixels) && flags.size() == range_m.size());
   const int m = solved.order;
-  const int bins = options.search_bins;
+  const int bins = options.SearchBins(m);
   // Tables laid out [k][n] so that the grid of one pixel is m axpy sweeps over n.
   std::vector<double> cosines(static_cast<size_t>(m) * bins), sines(cosines.size());
   for (int k = 1; k <= m; ++k) {
@@ -213,7 +218,7 @@ void MeseRange(const SolvedImage& solved, const RangeOptions& options, std::span
 #pragma omp simd
         for (int n = 0; n < bins; ++n) grid[n] += alpha * c[n] + beta * s[n];
       }
-      const double phase = MeseFirstPeakFromGrid(q_span, options.threshold, grid);
+      const double phase = MeseFirstPeakFromGrid(q_span, a_span, options.threshold, grid);
       if (std::isnan(phase)) {
         flags[p] |= kFlagNoReturn;
       } else {

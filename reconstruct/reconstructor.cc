@@ -31,9 +31,9 @@ absl::Status RangeOptions::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("threshold = ", threshold, ". Violated constraint: 0 <= threshold <= 1"));
   }
-  if (search_bins < 3) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("search_bins = ", search_bins, ". Violated constraint: search_bins >= 3"));
+  if (search_bins != 0 && search_bins < 3) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "search_bins = ", search_bins, ". Violated constraint: search_bins == 0 or >= 3"));
   }
   return absl::OkStatus();
 }
@@ -70,7 +70,14 @@ void SetKernelOptions(const KernelOptions& options) { CurrentKernelOptions() = o
 KernelOptions GetKernelOptions() { return CurrentKernelOptions(); }
 
 SolvedImage Solve(const MomentImage& moments, const SolveOptions& options) {
-  return UseOptimized() ? optimized::Solve(moments, options) : reference::Solve(moments, options);
+  SolvedImage solved;
+  Solve(moments, options, &solved);
+  return solved;
+}
+
+void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage* solved) {
+  UseOptimized() ? optimized::Solve(moments, options, solved)
+                 : reference::Solve(moments, options, solved);
 }
 
 PisarenkoImage EstimatePisarenko(const SolvedImage& solved) {

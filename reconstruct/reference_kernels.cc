@@ -42,18 +42,16 @@ bool ClearlyAboveBound(std::span<const Complex> c, double epsilon) {
 
 namespace internal {
 
-SolvedImage AllocateSolved(const MomentImage& moments) {
+void PrepareSolved(const MomentImage& moments, SolvedImage* solved) {
   const int64_t pixels = moments.geometry.pixel_count();
   const size_t values = static_cast<size_t>((moments.order + 1) * pixels);
-  SolvedImage solved;
-  solved.geometry = moments.geometry;
-  solved.order = moments.order;
-  solved.c_real.assign(values, kNaN);
-  solved.c_imag.assign(values, kNaN);
-  solved.q_real.assign(values, kNaN);
-  solved.q_imag.assign(values, kNaN);
-  solved.flags.assign(pixels, 0);
-  return solved;
+  solved->geometry = moments.geometry;
+  solved->order = moments.order;
+  solved->c_real.resize(values);
+  solved->c_imag.resize(values);
+  solved->q_real.resize(values);
+  solved->q_imag.resize(values);
+  solved->flags.assign(pixels, 0);
 }
 
 PisarenkoImage AllocatePisarenko(const SolvedImage& solved) {
@@ -79,23 +77,24 @@ void SolvePixels(const MomentImage& moments, const SolveOptions& options, bool q
       c[j] = {moments.real_plane(j)[p], j == 0 ? 0.0f : moments.imag_plane(j)[p]};
     }
     if (options.zeroth == ZerothMoment::kEstimate) c[0] = 0.0;
-    if ((!moments.valid.empty() && moments.valid[p] == 0) || !AllFinite(c)) {
-      flags |= kFlagInvalidInput;
-      continue;
-    }
-    if (options.zeroth == ZerothMoment::kEstimate) {
+    bool valid = (moments.valid.empty() || moments.valid[p] != 0) && AllFinite(c);
+    if (valid && options.zeroth == ZerothMoment::kEstimate) {
       // c_0 is constructed to sit exactly at the bound, so it does not count as biased.
       c[0] = EstimateZerothMoment(c, options.bias_epsilon);
     }
-    if (!(c[0].real() > 0.0)) {  // no light, or a negative measurement
-      flags |= kFlagInvalidInput;
-      continue;
+    valid = valid && c[0].real() > 0.0;  // else no light, or a negative measurement
+    if (valid) {
+      const bool skip_bias = quick_bias_check && options.zeroth == ZerothMoment::kMeasured &&
+                             ClearlyAboveBound(c, options.bias_epsilon);
+      if (!skip_bias && Bias(c, options.bias_epsilon, options.bias_mode)) flags |= kFlagBiased;
+      valid = Levinson(c, q);
     }
-    const bool skip_bias = quick_bias_check && options.zeroth == ZerothMoment::kMeasured &&
-                           ClearlyAboveBound(c, options.bias_epsilon);
-    if (!skip_bias && Bias(c, options.bias_epsilon, options.bias_mode)) flags |= kFlagBiased;
-    if (!Levinson(c, q)) {
+    if (!valid) {
       flags |= kFlagInvalidInput;
+      for (int j = 0; j < size; ++j) {
+        solved->c_real[j * pixels + p] = solved->c_imag[j * pixels + p] = kNaN;
+        solved->q_real[j * pixels + p] = solved->q_imag[j * pixels + p] = kNaN;
+      }
       continue;
     }
     for (int j = 0; j < size; ++j) {
@@ -166,12 +165,11 @@ void BoundPixels(const SolvedImage& solved, double r, std::span<const double> ph
 
 namespace reference {
 
-SolvedImage Solve(const MomentImage& moments, const SolveOptions& options) {
+void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage* solved) {
   assert(moments.Validate().ok() && options.Validate().ok());
-  SolvedImage solved = internal::AllocateSolved(moments);
+  internal::PrepareSolved(moments, solved);
   internal::SolvePixels(moments, options, /*quick_bias_check=*/false, 0,
-                        moments.geometry.pixel_count(), &solved);
-  return solved;
+                        moments.geometry.pixel_count(), solved);
 }
 
 PisarenkoImage EstimatePisarenko(const SolvedImage& solved) {
@@ -221,7 +219,7 @@ void MeseRange(const SolvedImage& solved, const RangeOptions& options, std::span
     range_m[p] = kNaNf;
     if (!solved.valid(p)) continue;
     solved.coefficients(p, q);
-    const double phase = MeseFirstPeakPhase(q, options.threshold, options.search_bins);
+    const double phase = MeseFirstPeakPhase(q, options.threshold, options.SearchBins(solved.order));
     if (std::isnan(phase)) {
       flags[p] |= kFlagNoReturn;
     } else {

@@ -23,7 +23,7 @@ void SetKernelOptions(const KernelOptions& options);
 KernelOptions GetKernelOptions();
 
 #define TRANSIENT_KERNEL_DECLARATIONS                                                         \
-  SolvedImage Solve(const MomentImage& moments, const SolveOptions& options);                 \
+  void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage* solved);    \
   PisarenkoImage EstimatePisarenko(const SolvedImage& solved);                                \
   void DensitySlices(const SolvedImage& solved, std::span<const double> phases,               \
                      std::span<float> out);                                                   \
@@ -36,6 +36,11 @@ KernelOptions GetKernelOptions();
 
 namespace reference {
 TRANSIENT_KERNEL_DECLARATIONS
+inline SolvedImage Solve(const MomentImage& moments, const SolveOptions& options) {
+  SolvedImage solved;
+  reference::Solve(moments, options, &solved);  // qualified: no ADL to transient::Solve
+  return solved;
+}
 void PisarenkoRange(const PisarenkoImage& pisarenko, const RangeOptions& options,
                     std::span<float> range_m, std::span<uint8_t> flags);
 void SeparateDirectIndirect(const PisarenkoImage& pisarenko, double threshold,
@@ -44,6 +49,11 @@ void SeparateDirectIndirect(const PisarenkoImage& pisarenko, double threshold,
 
 namespace optimized {
 TRANSIENT_KERNEL_DECLARATIONS
+inline SolvedImage Solve(const MomentImage& moments, const SolveOptions& options) {
+  SolvedImage solved;
+  optimized::Solve(moments, options, &solved);
+  return solved;
+}
 }  // namespace optimized
 
 #undef TRANSIENT_KERNEL_DECLARATIONS

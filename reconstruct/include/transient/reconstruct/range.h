@@ -28,6 +28,9 @@ double MeseFirstPeakPhase(std::span<const Complex> q, double threshold, int sear
 // refined from q).
 double MeseFirstPeakFromGrid(std::span<const Complex> q, double threshold,
                              std::span<const double> r);
+// The same with the denominator series `a` of q (MeseDenominatorSeries) already computed.
+double MeseFirstPeakFromGrid(std::span<const Complex> q, std::span<const Complex> a,
+                             double threshold, std::span<const double> r);
 
 // Phase (as OrderingPhase) of the first return with weight >= threshold * largest weight;
 // NaN when there is no return. Its index is written to `index` when non-null (-1 if none).

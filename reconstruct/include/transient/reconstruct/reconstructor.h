@@ -59,6 +59,9 @@ struct SolvedImage {
 // Validates and biases every pixel and runs Levinson's algorithm. `moments` must pass
 // MomentImage::Validate() and `options` SolveOptions::Validate() (asserted).
 SolvedImage Solve(const MomentImage& moments, const SolveOptions& options);
+// The same into `solved`, reusing its buffers: a stream of frames allocates (and the kernel
+// first-touches) its per-pixel state once, not per frame.
+void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage* solved);
 
 // Pisarenko estimate of every pixel (thesis §8.4.1), from the biased moments.
 struct PisarenkoImage {
@@ -88,9 +91,13 @@ void BoundSlices(const SolvedImage& solved, double r, std::span<const double> ph
 struct RangeOptions {
   double base_frequency_hz = 23e6;
   double threshold = 0.1;  // relative to the pixel's highest density / largest weight
-  int search_bins = 512;   // grid on which MESE peaks are searched before refinement
+  // Grid on which MESE peaks are searched before Newton refinement. 0 = automatic:
+  // 16 (m+1) phases, 8x the Nyquist rate of the degree-m denominator, so that every minimum
+  // of it shows on the grid unless another lies within 2*pi/(16 (m+1)).
+  int search_bins = 0;
 
   absl::Status Validate() const;
+  int SearchBins(int order) const { return search_bins > 0 ? search_bins : 16 * (order + 1); }
 };
 
 // Range of the first MESE peak above the threshold (thesis §8.4.3), metres; NaN and
