@@ -21,11 +21,10 @@ PisarenkoImage AllocatePisarenko(const SolvedImage& solved);
 // then lambda_min > eps c_0 already and biasing would change nothing.
 void SolvePixels(const MomentImage& moments, const SolveOptions& options, bool quick_bias_check,
                  int64_t begin, int64_t end, SolvedImage* solved);
-void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end,
-                     PisarenkoImage* result);
+void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end, PisarenkoImage* result);
 void CumulativePixels(const SolvedImage& solved, std::span<const double> phases, int64_t begin,
                       int64_t end, std::span<float> out);
-void BoundPixels(const SolvedImage& solved, double r, std::span<const double> phases,
-                 int64_t begin, int64_t end, std::span<float> lower, std::span<float> upper);
+void BoundPixels(const SolvedImage& solved, double r, std::span<const double> phases, int64_t begin,
+                 int64_t end, std::span<float> lower, std::span<float> upper);
 
 }  // namespace transient::internal

@@ -101,35 +101,66 @@ void MakeTables(std::span<const double> phases, int m, std::vector<double>* cosi
 }
 
 // out[n * stride + p] = scale[p] / (a0[p] + sum_k alpha_k[p] C[n][k] + beta_k[p] S[n][k]) for
-// p in [begin, end). The hot loop: compiled for AVX2+FMA and for plain x86-64, chosen at load
-// time by the CPU it runs on.
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void DensityBlock(
-    const SeriesPlanes& s, const double* cosines, const double* sines, int64_t phases,
-    int64_t begin, int64_t end, float* out) {
-  const int m = s.order;
+// p in [begin, end), with m a compile-time constant so the sum unrolls into registers, one
+// SIMD lane per pixel (Ceres-style fixed sizes).
+template <int M>
+__attribute__((always_inline)) inline void DensityBlockFixed(const SeriesPlanes& s,
+                                                             const double* cosines,
+                                                             const double* sines, int64_t phases,
+                                                             int64_t begin, int64_t end,
+                                                             float* out) {
   const int64_t stride = s.pixels;
-  double denominator[kBlockPixels];
   const int64_t count = end - begin;
+  const double* a0 = s.a0.data() + begin;
+  const double* alpha = s.alpha.data() + begin;
+  const double* beta = s.beta.data() + begin;
+  const float* scale = s.scale.data() + begin;
   for (int64_t n = 0; n < phases; ++n) {
-    const double* c = cosines + n * m;
-    const double* si = sines + n * m;
-    const double* a0 = s.a0.data() + begin;
-#pragma omp simd
-    for (int64_t i = 0; i < count; ++i) denominator[i] = a0[i];
-    for (int k = 0; k < m; ++k) {
-      const double ck = c[k], sk = si[k];
-      const double* alpha = s.alpha.data() + k * stride + begin;
-      const double* beta = s.beta.data() + k * stride + begin;
-#pragma omp simd
-      for (int64_t i = 0; i < count; ++i) {
-        denominator[i] += alpha[i] * ck + beta[i] * sk;
-      }
+    double c[M], si[M];
+    for (int k = 0; k < M; ++k) {
+      c[k] = cosines[n * M + k];
+      si[k] = sines[n * M + k];
     }
-    const float* scale = s.scale.data() + begin;
     float* row = out + n * stride + begin;
 #pragma omp simd
-    for (int64_t i = 0; i < count; ++i) row[i] = scale[i] / static_cast<float>(denominator[i]);
+    for (int64_t i = 0; i < count; ++i) {
+      double denominator = a0[i];
+      for (int k = 0; k < M; ++k) {
+        denominator += alpha[k * stride + i] * c[k] + beta[k * stride + i] * si[k];
+      }
+      row[i] = scale[i] / static_cast<float>(denominator);
+    }
   }
+}
+
+// The hot loop, compiled for AVX-512, for AVX2+FMA and for plain x86-64, chosen at load time
+// by the CPU it runs on; each clone holds one unrolled kernel per m.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void DensityBlock(
+    const SeriesPlanes& s, const double* cosines, const double* sines, int64_t phases,
+    int64_t begin, int64_t end, float* out) {
+  switch (s.order) {
+#define TRANSIENT_DENSITY_CASE(M) \
+  case M:                         \
+    return DensityBlockFixed<M>(s, cosines, sines, phases, begin, end, out);
+    TRANSIENT_DENSITY_CASE(1)
+    TRANSIENT_DENSITY_CASE(2)
+    TRANSIENT_DENSITY_CASE(3)
+    TRANSIENT_DENSITY_CASE(4)
+    TRANSIENT_DENSITY_CASE(5)
+    TRANSIENT_DENSITY_CASE(6)
+    TRANSIENT_DENSITY_CASE(7)
+    TRANSIENT_DENSITY_CASE(8)
+    TRANSIENT_DENSITY_CASE(9)
+    TRANSIENT_DENSITY_CASE(10)
+    TRANSIENT_DENSITY_CASE(11)
+    TRANSIENT_DENSITY_CASE(12)
+    TRANSIENT_DENSITY_CASE(13)
+    TRANSIENT_DENSITY_CASE(14)
+    TRANSIENT_DENSITY_CASE(15)
+    TRANSIENT_DENSITY_CASE(16)
+#undef TRANSIENT_DENSITY_CASE
+  }
+  assert(false && "order outside 1..kMaxOrder");
 }
 
 }  // namespace
@@ -165,8 +196,8 @@ void DensitySlices(const SolvedImage& solved, std::span<const double> phases,
   MakeSeries(solved, series);
   MakeTables(phases, solved.order, &cosines, &sines);
   ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {
-    DensityBlock(series, cosines.data(), sines.data(), static_cast<int64_t>(phases.size()),
-                 begin, end, out.data());
+    DensityBlock(series, cosines.data(), sines.data(), static_cast<int64_t>(phases.size()), begin,
+                 end, out.data());
   });
 }
 

@@ -120,9 +120,10 @@ void Amplitude(const SolvedImage& solved, std::span<float> out) {
   const int64_t pixels = solved.geometry.pixel_count();
   assert(out.size() == static_cast<size_t>(pixels));
   for (int64_t p = 0; p < pixels; ++p) {
-    out[p] = solved.valid(p) ? static_cast<float>(std::hypot(solved.c_real[pixels + p],
-                                                             solved.c_imag[pixels + p]))
-                             : std::numeric_limits<float>::quiet_NaN();
+    out[p] =
+        solved.valid(p)
+            ? static_cast<float>(std::hypot(solved.c_real[pixels + p], solved.c_imag[pixels + p]))
+            : std::numeric_limits<float>::quiet_NaN();
   }
 }
 

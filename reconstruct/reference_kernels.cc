@@ -142,8 +142,8 @@ void CumulativePixels(const SolvedImage& solved, std::span<const double> phases,
   }
 }
 
-void BoundPixels(const SolvedImage& solved, double r, std::span<const double> phases,
-                 int64_t begin, int64_t end, std::span<float> lower, std::span<float> upper) {
+void BoundPixels(const SolvedImage& solved, double r, std::span<const double> phases, int64_t begin,
+                 int64_t end, std::span<float> lower, std::span<float> upper) {
   const int64_t pixels = solved.geometry.pixel_count();
   std::array<Complex, kMaxMoments> c_storage;
   const std::span<Complex> c(c_storage.data(), solved.order + 1);

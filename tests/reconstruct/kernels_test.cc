@@ -15,11 +15,11 @@
 namespace transient {
 namespace {
 
-constexpr double kDensityTolerance = 1e-3;      // relative, where D >= 1e-3 max D
-constexpr double kDensityFloor = 1e-3;          // of the pixel's largest sample
-constexpr double kCumulativeTolerance = 1e-4;   // relative to c_0
-constexpr double kRangeTolerance = 1e-4;        // metres
-constexpr ImageGeometry kGeometry{37, 23};      // not a multiple of any block or vector size
+constexpr double kDensityTolerance = 1e-3;     // relative, where D >= 1e-3 max D
+constexpr double kDensityFloor = 1e-3;         // of the pixel's largest sample
+constexpr double kCumulativeTolerance = 1e-4;  // relative to c_0
+constexpr double kRangeTolerance = 1e-4;       // metres
+constexpr ImageGeometry kGeometry{37, 23};     // not a multiple of any block or vector size
 
 // Pixels with 1..m+1 returns, a uniform part from 0 to 0.2, noise that makes some of them
 // need biasing, and a few invalid ones (NaN, no light, masked).
@@ -127,8 +127,7 @@ TEST_P(Kernels, CumulativeBoundsAndPisarenkoMatchTheReference) {
   const PisarenkoImage b = optimized::EstimatePisarenko(solved);
   for (size_t i = 0; i < a.phase.size(); ++i) {
     EXPECT_TRUE(a.phase[i] == b.phase[i] || (std::isnan(a.phase[i]) && std::isnan(b.phase[i])));
-    EXPECT_TRUE(a.weight[i] == b.weight[i] ||
-                (std::isnan(a.weight[i]) && std::isnan(b.weight[i])));
+    EXPECT_TRUE(a.weight[i] == b.weight[i] || (std::isnan(a.weight[i]) && std::isnan(b.weight[i])));
   }
 }
 

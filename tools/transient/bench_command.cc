@@ -103,25 +103,30 @@ absl::StatusOr<std::vector<BenchRow>> RunBench(const BenchArgs& args,
     const SolvedImage solved = reference::Solve(image, SolveOptions{});
     const std::vector<double> phases = UniformPhases(256);
     std::vector<float> out(phases.size() * pmd.pixel_count());
-    Measure(args, "density (256 phases)", m, pmd, "evaluations/s", out.size(),
-            [&] { DensitySlices(solved, phases, out); }, &rows, progress);
+    Measure(
+        args, "density (256 phases)", m, pmd, "evaluations/s", out.size(),
+        [&] { DensitySlices(solved, phases, out); }, &rows, progress);
     SolvedImage reused;
-    Measure(args, "solve (check, bias, Levinson)", m, pmd, "pixels/s", pmd_pixels,
-            [&] { Solve(image, SolveOptions{}, &reused); }, &rows, progress);
+    Measure(
+        args, "solve (check, bias, Levinson)", m, pmd, "pixels/s", pmd_pixels,
+        [&] { Solve(image, SolveOptions{}, &reused); }, &rows, progress);
     std::vector<float> range(pmd.pixel_count());
     std::vector<uint8_t> flags(pmd.pixel_count());
-    Measure(args, "range (MESE first peak)", m, pmd, "pixels/s", pmd_pixels,
-            [&] { MeseRange(solved, RangeOptions{}, range, flags); }, &rows, progress);
-    Measure(args, "Pisarenko", m, pmd, "pixels/s", pmd_pixels,
-            [&] { (void)EstimatePisarenko(solved); }, &rows, progress);
+    Measure(
+        args, "range (MESE first peak)", m, pmd, "pixels/s", pmd_pixels,
+        [&] { MeseRange(solved, RangeOptions{}, range, flags); }, &rows, progress);
+    Measure(
+        args, "Pisarenko", m, pmd, "pixels/s", pmd_pixels, [&] { (void)EstimatePisarenko(solved); },
+        &rows, progress);
   }
   {
     const MomentImage image = MakeFrame(pmd, 3);
     const SolvedImage solved = reference::Solve(image, SolveOptions{});
     const std::vector<double> phases = UniformPhases(64);
     std::vector<float> out(phases.size() * pmd.pixel_count());
-    Measure(args, "cumulative (64 phases)", 3, pmd, "evaluations/s", out.size(),
-            [&] { CumulativeSlices(solved, phases, out); }, &rows, progress);
+    Measure(
+        args, "cumulative (64 phases)", 3, pmd, "evaluations/s", out.size(),
+        [&] { CumulativeSlices(solved, phases, out); }, &rows, progress);
   }
   // The whole per-frame job: moments in; range, amplitude and 64 density slices out.
   for (auto [geometry, m] : {std::pair{pmd, 3}, std::pair{vga, 4}}) {
@@ -131,23 +136,23 @@ absl::StatusOr<std::vector<BenchRow>> RunBench(const BenchArgs& args,
     std::vector<float> range(pixels), amplitude(pixels), slices(phases.size() * pixels);
     std::vector<uint8_t> flags(pixels);
     SolvedImage solved;  // reused from frame to frame, as a stream would
-    Measure(args, "pipeline (range, amplitude, 64 slices)", m, geometry, "frames/s", 1.0,
-            [&] {
-              Solve(image, SolveOptions{}, &solved);
-              flags = solved.flags;
-              MeseRange(solved, RangeOptions{}, range, flags);
-              Amplitude(solved, amplitude);
-              DensitySlices(solved, phases, slices);
-            },
-            &rows, progress);
+    Measure(
+        args, "pipeline (range, amplitude, 64 slices)", m, geometry, "frames/s", 1.0,
+        [&] {
+          Solve(image, SolveOptions{}, &solved);
+          flags = solved.flags;
+          MeseRange(solved, RangeOptions{}, range, flags);
+          Amplitude(solved, amplitude);
+          DensitySlices(solved, phases, slices);
+        },
+        &rows, progress);
   }
   return rows;
 }
 
 std::string FormatBenchTable(const std::vector<BenchRow>& rows) {
   std::string table = absl::StrFormat("%-40s %3s %9s %7s %14s %14s %8s  %s\n", "kernel", "m",
-                                      "size", "threads", "reference", "optimized", "ratio",
-                                      "unit");
+                                      "size", "threads", "reference", "optimized", "ratio", "unit");
   for (const BenchRow& row : rows) {
     absl::StrAppendFormat(&table, "%-40s %3d %9s %7d %14.4g %14.4g %7.1fx  %s\n", row.kernel,
                           row.order, absl::StrCat(row.width, "x", row.height), row.threads,

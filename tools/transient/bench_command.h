@@ -11,8 +11,8 @@
 namespace transient::tools {
 
 struct BenchArgs {
-  std::string json_path;           // also write the rows as JSON here (empty: do not)
-  double min_seconds = 0.2;        // per measurement: repeat until this much time has passed
+  std::string json_path;     // also write the rows as JSON here (empty: do not)
+  double min_seconds = 0.2;  // per measurement: repeat until this much time has passed
   std::vector<int> threads = {1, 2};
 
   absl::Status Validate() const;
@@ -22,8 +22,8 @@ struct BenchRow {
   std::string kernel;  // e.g. "density (256 phases)"
   int order = 0;       // m
   int width = 0, height = 0;
-  int threads = 0;     // of the optimized kernel
-  std::string unit;    // what `reference` and `optimized` count per second
+  int threads = 0;                          // of the optimized kernel
+  std::string unit;                         // what `reference` and `optimized` count per second
   double reference = 0.0, optimized = 0.0;  // units per second
   double ratio() const { return optimized / reference; }
 };

@@ -22,17 +22,17 @@ struct KernelOptions {
 void SetKernelOptions(const KernelOptions& options);
 KernelOptions GetKernelOptions();
 
-#define TRANSIENT_KERNEL_DECLARATIONS                                                         \
-  void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage* solved);    \
-  PisarenkoImage EstimatePisarenko(const SolvedImage& solved);                                \
-  void DensitySlices(const SolvedImage& solved, std::span<const double> phases,               \
-                     std::span<float> out);                                                   \
-  void CumulativeSlices(const SolvedImage& solved, std::span<const double> phases,            \
-                        std::span<float> out);                                                \
-  void BoundSlices(const SolvedImage& solved, double r, std::span<const double> phases,       \
-                   std::span<float> lower, std::span<float> upper);                           \
-  void MeseRange(const SolvedImage& solved, const RangeOptions& options,                      \
-                 std::span<float> range_m, std::span<uint8_t> flags);
+#define TRANSIENT_KERNEL_DECLARATIONS                                                              \
+  void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage* solved);        \
+  PisarenkoImage EstimatePisarenko(const SolvedImage& solved);                                     \
+  void DensitySlices(const SolvedImage& solved, std::span<const double> phases,                    \
+                     std::span<float> out);                                                        \
+  void CumulativeSlices(const SolvedImage& solved, std::span<const double> phases,                 \
+                        std::span<float> out);                                                     \
+  void BoundSlices(const SolvedImage& solved, double r, std::span<const double> phases,            \
+                   std::span<float> lower, std::span<float> upper);                                \
+  void MeseRange(const SolvedImage& solved, const RangeOptions& options, std::span<float> range_m, \
+                 std::span<uint8_t> flags);
 
 namespace reference {
 TRANSIENT_KERNEL_DECLARATIONS
