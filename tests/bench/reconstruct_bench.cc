@@ -1,12 +1,13 @@
-// Throughput of the scalar reference kernels, the baseline that optimized kernels are
-// measured against. Run: make bench (or build/tests/bench/transient_bench).
+// Throughput of the reference and the optimized kernels in one run. Arguments: m, kernel kind
+// (0 = reference, 1 = optimized) and threads of the optimized kind. `transient bench` prints
+// the same measurements side by side with their ratio. Run: make bench.
 #include <benchmark/benchmark.h>
 
 #include <random>
 #include <vector>
 
 #include "transient/reconstruct/levinson.h"
-#include "transient/reconstruct/reconstructor.h"
+#include "transient/reconstruct/kernels.h"
 
 namespace transient {
 namespace {
@@ -32,18 +33,37 @@ MomentImage MakeFrame(int m) {
   return image;
 }
 
+// Selects the kernels of a benchmark from its arguments (m, kind, threads).
+void UseKernels(const benchmark::State& state) {
+  SetKernelOptions({.kind = state.range(1) == 0 ? KernelKind::kReference : KernelKind::kOptimized,
+                    .threads = static_cast<int>(state.range(2))});
+}
+
+// m = 3, 4, 8 for the reference, and for the optimized kind on 1 and 2 threads.
+void Arguments(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"m", "optimized", "threads"});
+  b->UseRealTime();  // threads: rates per wall-clock second, not per main-thread CPU second
+  for (int m : {3, 4, 8}) {
+    b->Args({m, 0, 1});
+    b->Args({m, 1, 1});
+    b->Args({m, 1, 2});
+  }
+}
+
 void BM_Solve(benchmark::State& state) {
   const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
+  UseKernels(state);
   for (auto _ : state) benchmark::DoNotOptimize(Solve(image, SolveOptions{}));
   state.SetItemsProcessed(state.iterations() * image.geometry.pixel_count());
   state.counters["pixels/s"] =
       benchmark::Counter(static_cast<double>(state.iterations() * image.geometry.pixel_count()),
                          benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_Solve)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Solve)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
 void BM_DensitySlices(benchmark::State& state) {
   const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
+  UseKernels(state);
   const SolvedImage solved = Solve(image, SolveOptions{});
   const auto phases = UniformPhases(256);
   std::vector<float> out(phases.size() * image.geometry.pixel_count());
@@ -54,10 +74,11 @@ void BM_DensitySlices(benchmark::State& state) {
   state.counters["evaluations/s"] = benchmark::Counter(
       static_cast<double>(state.iterations() * out.size()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_DensitySlices)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_DensitySlices)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
 void BM_CumulativeSlices(benchmark::State& state) {
   const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
+  UseKernels(state);
   const SolvedImage solved = Solve(image, SolveOptions{});
   const auto phases = UniformPhases(64);
   std::vector<float> out(phases.size() * image.geometry.pixel_count());
@@ -68,10 +89,11 @@ void BM_CumulativeSlices(benchmark::State& state) {
   state.counters["evaluations/s"] = benchmark::Counter(
       static_cast<double>(state.iterations() * out.size()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_CumulativeSlices)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CumulativeSlices)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
 void BM_MeseRange(benchmark::State& state) {
   const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
+  UseKernels(state);
   const SolvedImage solved = Solve(image, SolveOptions{});
   const int64_t pixels = image.geometry.pixel_count();
   std::vector<float> range(pixels);
@@ -83,17 +105,18 @@ void BM_MeseRange(benchmark::State& state) {
   state.counters["pixels/s"] = benchmark::Counter(static_cast<double>(state.iterations() * pixels),
                                                   benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_MeseRange)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MeseRange)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
 void BM_Pisarenko(benchmark::State& state) {
   const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
+  UseKernels(state);
   const SolvedImage solved = Solve(image, SolveOptions{});
   for (auto _ : state) benchmark::DoNotOptimize(EstimatePisarenko(solved));
   state.counters["pixels/s"] =
       benchmark::Counter(static_cast<double>(state.iterations() * image.geometry.pixel_count()),
                          benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_Pisarenko)->Arg(3)->Arg(4)->Arg(8)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Pisarenko)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace transient
