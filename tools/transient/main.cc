@@ -152,6 +152,10 @@ CLI::App* AddBenchCommand(CLI::App& app, BenchCommandLine& line) {
 }
 
 int RunBenchCommand(const BenchCommandLine& line) {
+  if (absl::Status status = line.args.Validate(); !status.ok()) {
+    std::cerr << ErrorLine(status) << "\n";
+    return kExitBadInput;
+  }
   std::fprintf(stderr, "transient bench: reference vs optimized, one row at a time...\n");
   absl::StatusOr<std::vector<transient::tools::BenchRow>> rows =
       transient::tools::RunBench(line.args, [](const transient::tools::BenchRow& row) {
