@@ -49,21 +49,6 @@ SeriesValue EvaluateDenominatorSeries(std::span<const Complex> a, double phase) 
   return result;
 }
 
-SeriesValue EvaluateDenominator(std::span<const Complex> q, double phase) {
-  const Complex x = std::polar(1.0, phase);
-  Complex p = 0.0, dp = 0.0, ddp = 0.0;
-  for (size_t j = q.size(); j-- > 0;) {
-    ddp = ddp * x + 2.0 * dp;
-    dp = dp * x + p;
-    p = p * x + std::conj(q[j]);
-  }
-  const Complex i(0.0, 1.0);
-  const Complex first = i * x * dp;
-  const Complex second = -(x * dp + x * x * ddp);
-  return {std::norm(p), 2.0 * (std::conj(p) * first).real(),
-          2.0 * (std::norm(first) + (std::conj(p) * second).real())};
-}
-
 int MeseRoots(std::span<const Complex> q, std::span<Complex> roots) {
   std::array<Complex, kMaxMoments> coefficients;
   for (size_t j = 0; j < q.size(); ++j) coefficients[j] = std::conj(q[j]);

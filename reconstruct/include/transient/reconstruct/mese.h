@@ -28,14 +28,10 @@ struct SeriesValue {
 };
 
 // The series above at phi. Cheap once `a` is known, but near a sharp peak its relative error
-// grows like u / eps^2 (the terms cancel to r_min ~ eps^2 a_0), so peak finding uses
-// EvaluateDenominator instead.
+// grows like u / eps^2 (the terms cancel to r_min ~ eps^2 a_0): good for locating a minimum
+// (range.h's Newton steps), not for comparing the depths of minima, which range.h does with
+// |p|^2 by Horner (EvaluatePolynomial).
 SeriesValue EvaluateDenominatorSeries(std::span<const Complex> a, double phase);
-
-// |p(x)|^2 and its derivatives for p(x) = sum_j conj(q_j) x^j, x = exp(i*phi), by Horner on
-// p, p' and p'': r = |p|^2, r' = 2 Re(conj(p) P1), r'' = 2 (|P1|^2 + Re(conj(p) P2)) with
-// P1 = i x p'(x), P2 = -(x p'(x) + x^2 p''(x)). Relative error ~u / eps near peaks.
-SeriesValue EvaluateDenominator(std::span<const Complex> q, double phase);
 
 // Roots of the denominator polynomial sum_j conj(q_j) x^j (eq. 8.5); all lie strictly outside
 // the unit circle (lemma B.9). Returns their number (the degree, m unless q_m vanishes).
