@@ -6,32 +6,15 @@
 #include <random>
 #include <vector>
 
-#include "transient/reconstruct/levinson.h"
+#include "tools/transient/bench_command.h"
 #include "transient/reconstruct/kernels.h"
+#include "transient/reconstruct/levinson.h"
 
 namespace transient {
 namespace {
 
-// A frame of the thesis's sensor size (pmd 19k, 163 x 120) whose pixels hold three returns
-// and a small uniform component, like the mirrors scene of thesis fig. 8.7.
-MomentImage MakeFrame(int m) {
-  const ImageGeometry geometry{163, 120};
-  MomentImage image(geometry, m);
-  std::mt19937_64 rng(42);
-  std::uniform_real_distribution<double> phase(0.2, 5.5), weight(0.2, 1.0);
-  for (int64_t p = 0; p < geometry.pixel_count(); ++p) {
-    const std::vector<double> phases = {phase(rng), phase(rng), phase(rng)};
-    const std::vector<double> weights = {weight(rng), weight(rng), weight(rng)};
-    std::vector<Complex> c(m + 1);
-    DiracMoments(phases, weights, c);
-    c[0] += 0.05;
-    for (int j = 0; j <= m; ++j) {
-      image.real_plane(j)[p] = static_cast<float>(c[j].real());
-      image.imag_plane(j)[p] = static_cast<float>(c[j].imag());
-    }
-  }
-  return image;
-}
+// The frame of `transient bench` at the thesis's sensor size (pmd 19k, 163 x 120).
+MomentImage MakeFrame(int m) { return tools::MakeBenchFrame({163, 120}, m); }
 
 // Selects the kernels of a benchmark from its arguments (m, kind, threads).
 void UseKernels(const benchmark::State& state) {

@@ -16,28 +16,6 @@
 namespace transient::tools {
 namespace {
 
-// A frame whose pixels hold three returns and a small uniform component, like the mirrors
-// scene of thesis fig. 8.7, with a little noise so that some pixels need biasing.
-MomentImage MakeFrame(ImageGeometry geometry, int m) {
-  MomentImage image(geometry, m);
-  std::mt19937_64 rng(42);
-  std::uniform_real_distribution<double> phase(0.2, 5.5), weight(0.2, 1.0);
-  std::normal_distribution<double> noise(0.0, 0.005);
-  std::vector<Complex> c(m + 1);
-  for (int64_t p = 0; p < geometry.pixel_count(); ++p) {
-    const std::vector<double> phases = {phase(rng), phase(rng), phase(rng)};
-    const std::vector<double> weights = {weight(rng), weight(rng), weight(rng)};
-    DiracMoments(phases, weights, c);
-    c[0] += 0.05;
-    for (int j = 0; j <= m; ++j) {
-      const Complex n = j == 0 ? Complex(0.0) : Complex(noise(rng), noise(rng));
-      image.real_plane(j)[p] = static_cast<float>((c[j] + n).real());
-      image.imag_plane(j)[p] = static_cast<float>((c[j] + n).imag());
-    }
-  }
-  return image;
-}
-
 // Seconds per call of `run`, repeated until `min_seconds` have passed (at least once).
 double SecondsPerCall(const std::function<void()>& run, double min_seconds) {
   using Clock = std::chrono::steady_clock;
@@ -76,6 +54,26 @@ void Measure(const BenchArgs& args, const std::string& kernel, int m, ImageGeome
 
 }  // namespace
 
+MomentImage MakeBenchFrame(ImageGeometry geometry, int m) {
+  MomentImage image(geometry, m);
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<double> phase(0.2, 5.5), weight(0.2, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.005);
+  std::vector<Complex> c(m + 1);
+  for (int64_t p = 0; p < geometry.pixel_count(); ++p) {
+    const std::vector<double> phases = {phase(rng), phase(rng), phase(rng)};
+    const std::vector<double> weights = {weight(rng), weight(rng), weight(rng)};
+    DiracMoments(phases, weights, c);
+    c[0] += 0.05;
+    for (int j = 0; j <= m; ++j) {
+      const Complex n = j == 0 ? Complex(0.0) : Complex(noise(rng), noise(rng));
+      image.real_plane(j)[p] = static_cast<float>((c[j] + n).real());
+      image.imag_plane(j)[p] = static_cast<float>((c[j] + n).imag());
+    }
+  }
+  return image;
+}
+
 absl::Status BenchArgs::Validate() const {
   if (!(min_seconds > 0.0 && min_seconds <= 60.0)) {
     return absl::InvalidArgumentError(
@@ -99,7 +97,7 @@ absl::StatusOr<std::vector<BenchRow>> RunBench(const BenchArgs& args,
   const double pmd_pixels = static_cast<double>(pmd.pixel_count());
 
   for (int m : {3, 4, 8}) {
-    const MomentImage image = MakeFrame(pmd, m);
+    const MomentImage image = MakeBenchFrame(pmd, m);
     const SolvedImage solved = reference::Solve(image, SolveOptions{});
     const std::vector<double> phases = UniformPhases(256);
     std::vector<float> out(phases.size() * pmd.pixel_count());
@@ -120,7 +118,7 @@ absl::StatusOr<std::vector<BenchRow>> RunBench(const BenchArgs& args,
         &rows, progress);
   }
   {
-    const MomentImage image = MakeFrame(pmd, 3);
+    const MomentImage image = MakeBenchFrame(pmd, 3);
     const SolvedImage solved = reference::Solve(image, SolveOptions{});
     const std::vector<double> phases = UniformPhases(64);
     std::vector<float> out(phases.size() * pmd.pixel_count());
@@ -130,7 +128,7 @@ absl::StatusOr<std::vector<BenchRow>> RunBench(const BenchArgs& args,
   }
   // The whole per-frame job: moments in; range, amplitude and 64 density slices out.
   for (auto [geometry, m] : {std::pair{pmd, 3}, std::pair{vga, 4}}) {
-    const MomentImage image = MakeFrame(geometry, m);
+    const MomentImage image = MakeBenchFrame(geometry, m);
     const std::vector<double> phases = UniformPhases(64);
     const int64_t pixels = geometry.pixel_count();
     std::vector<float> range(pixels), amplitude(pixels), slices(phases.size() * pixels);

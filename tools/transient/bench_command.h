@@ -7,6 +7,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "transient/reconstruct/image.h"
 
 namespace transient::tools {
 
@@ -27,6 +28,11 @@ struct BenchRow {
   double reference = 0.0, optimized = 0.0;  // units per second
   double ratio() const { return optimized / reference; }
 };
+
+// The benchmark frame: every pixel holds three returns and a small uniform component, like
+// the mirrors scene of thesis fig. 8.7, with a little noise so that some pixels need biasing.
+// Deterministic (fixed seed); shared with tests/bench so both suites time the same data.
+MomentImage MakeBenchFrame(ImageGeometry geometry, int m);
 
 // Runs every measurement; `progress` gets a line per row as it completes.
 absl::StatusOr<std::vector<BenchRow>> RunBench(const BenchArgs& args,
