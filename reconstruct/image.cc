@@ -33,6 +33,11 @@ absl::Status MomentImage::Validate() const {
         "valid plane holds ", valid.size(),
         " values. Violated constraint: empty or width*height = ", geometry.pixel_count()));
   }
+  if (!flags.empty() && flags.size() != static_cast<size_t>(geometry.pixel_count())) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "flags plane holds ", flags.size(),
+        " values. Violated constraint: empty or width*height = ", geometry.pixel_count()));
+  }
   return absl::OkStatus();
 }
 

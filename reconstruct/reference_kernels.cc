@@ -52,6 +52,9 @@ void PrepareSolved(const MomentImage& moments, SolvedImage* solved) {
   solved->q_real.resize(values);
   solved->q_imag.resize(values);
   solved->flags.assign(pixels, 0);
+  if (!moments.flags.empty()) {
+    for (int64_t p = 0; p < pixels; ++p) solved->flags[p] = moments.flags[p] & kMomentImageFlags;
+  }
 }
 
 PisarenkoImage AllocatePisarenko(const SolvedImage& solved) {

@@ -1,5 +1,5 @@
 // The root `format` attribute: a known name and major version, any minor version.
-#include "tools/transient/format_tag.h"
+#include "transient/drivers/format_tag.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

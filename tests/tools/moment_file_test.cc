@@ -11,7 +11,7 @@
 #include "tests/tools/scratch_directory.h"
 #include "tests/tools/status_matchers.h"
 #include "tests/tools/test_files.h"
-#include "tools/transient/h5.h"
+#include "transient/drivers/h5.h"
 #include "transient/reconstruct/moments.h"
 
 namespace transient::tools {

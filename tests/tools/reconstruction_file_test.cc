@@ -9,7 +9,7 @@
 #include "tests/tools/scratch_directory.h"
 #include "tests/tools/status_matchers.h"
 #include "tests/tools/test_files.h"
-#include "tools/transient/h5.h"
+#include "transient/drivers/h5.h"
 
 namespace transient::tools {
 namespace {

@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "tools/transient/h5.h"
+#include "transient/drivers/h5.h"
 
 namespace transient::tools::testing {
 namespace {

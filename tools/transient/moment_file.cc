@@ -12,7 +12,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/string_view.h"
-#include "tools/transient/format_tag.h"
+#include "transient/drivers/format_tag.h"
 #include "transient/reconstruct/moments.h"
 
 namespace transient::tools {

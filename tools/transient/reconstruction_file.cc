@@ -4,7 +4,7 @@
 #include <limits>
 
 #include "absl/strings/str_cat.h"
-#include "tools/transient/format_tag.h"
+#include "transient/drivers/format_tag.h"
 
 namespace transient::tools {
 namespace {

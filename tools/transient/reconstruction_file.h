@@ -11,7 +11,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "tools/transient/h5.h"
+#include "transient/drivers/h5.h"
 #include "transient/reconstruct/image.h"
 
 namespace transient::tools {

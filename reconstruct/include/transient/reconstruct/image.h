@@ -17,6 +17,18 @@ struct ImageGeometry {
   friend bool operator==(const ImageGeometry&, const ImageGeometry&) = default;
 };
 
+// Bits of the per-pixel flags planes of moment images and products. A pixel with
+// kFlagInvalidInput has no products (NaN).
+enum PixelFlag : uint8_t {
+  kFlagBiased = 1 << 0,        // biasing changed the moments (an estimated c_0 alone does not)
+  kFlagInvalidInput = 1 << 1,  // NaN/Inf, c_0 <= 0, marked invalid, or not repairable
+  kFlagNoReturn = 1 << 2,      // no peak / return above the relative threshold
+  kFlagSaturated = 1 << 3,     // a raw frame of this pixel was saturated (also invalid)
+  kFlagOutlierFilled = 1 << 4, // filled from the previous frame after an outlier capture
+};
+// The bits a MomentImage carries into the products of its pixels.
+inline constexpr uint8_t kMomentImageFlags = kFlagSaturated | kFlagOutlierFilled;
+
 // Trigonometric moments c_0..c_m of every pixel of one frame, as float32 planes.
 // Plane j (0 <= j <= m) of `real` and `imag` holds Re c_j and Im c_j of all pixels at offset
 // j * pixel_count(). c_0 is real: imag plane 0 is ignored. Units are those of the sensor
@@ -27,6 +39,8 @@ struct MomentImage {
   std::vector<float> real;     // (m+1) * pixel_count()
   std::vector<float> imag;     // (m+1) * pixel_count()
   std::vector<uint8_t> valid;  // empty (all valid) or pixel_count(); 0 = invalid pixel
+  std::vector<uint8_t> flags;  // empty or pixel_count(); kMomentImageFlags bits, copied into the
+                               // products' flags (the other bits are ignored)
 
   MomentImage() = default;
   MomentImage(ImageGeometry g, int m);

@@ -23,13 +23,6 @@ enum class ZerothMoment {
   kEstimate,  // plane 0 is ignored; c_0 := -lambda_min(zero-diagonal C) / (1 - eps)
 };
 
-// Bits of the per-pixel flags plane. A pixel with kInvalidInput has no products (NaN).
-enum PixelFlag : uint8_t {
-  kFlagBiased = 1 << 0,        // biasing changed the moments (an estimated c_0 alone does not)
-  kFlagInvalidInput = 1 << 1,  // NaN/Inf, c_0 <= 0, marked invalid, or not repairable
-  kFlagNoReturn = 1 << 2,      // no peak / return above the relative threshold
-};
-
 inline constexpr double kMinBiasEpsilon = 1e-6;
 
 struct SolveOptions {

@@ -8,7 +8,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/string_view.h"
 
-namespace transient::tools {
+namespace transient {
 
 struct FormatTag {
   std::string name;  // e.g. "transient-moments"
@@ -24,4 +24,4 @@ absl::Status CheckFormatTag(absl::string_view text, absl::string_view name, int 
 // "transient-moments 1".
 std::string FormatTagString(absl::string_view name, int major);
 
-}  // namespace transient::tools
+}  // namespace transient

@@ -1,5 +1,5 @@
 // RAII and attribute helpers over HDF5's C API.
-#include "tools/transient/h5.h"
+#include "transient/drivers/h5.h"
 
 #include <mutex>
 #include <string>
@@ -8,7 +8,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 
-namespace transient::tools::h5 {
+namespace transient::h5 {
 
 Id& Id::operator=(Id&& other) noexcept {
   if (this != &other) {
@@ -196,4 +196,4 @@ absl::Status WriteInt64Attribute(hid_t object, const char* name, int64_t value) 
   return WriteScalarAttribute(object, name, H5T_STD_I64LE, H5T_NATIVE_INT64, &value);
 }
 
-}  // namespace transient::tools::h5
+}  // namespace transient::h5

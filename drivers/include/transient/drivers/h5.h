@@ -13,7 +13,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 
-namespace transient::tools::h5 {
+namespace transient::h5 {
 
 // Owns one HDF5 identifier and closes it with the H5*close function of its kind.
 class Id {
@@ -85,4 +85,4 @@ absl::Status WriteStringAttribute(hid_t object, const char* name, absl::string_v
 absl::Status WriteDoubleAttribute(hid_t object, const char* name, double value);
 absl::Status WriteInt64Attribute(hid_t object, const char* name, int64_t value);
 
-}  // namespace transient::tools::h5
+}  // namespace transient::h5

@@ -1,5 +1,5 @@
 // Parsing and checking of the root `format` attribute.
-#include "tools/transient/format_tag.h"
+#include "transient/drivers/format_tag.h"
 
 #include <optional>
 #include <vector>
@@ -8,7 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 
-namespace transient::tools {
+namespace transient {
 namespace {
 
 // "NAME MAJOR" or "NAME MAJOR.MINOR" with non-negative decimal versions; nullopt otherwise.
@@ -52,4 +52,4 @@ absl::Status CheckFormatTag(absl::string_view text, absl::string_view name, int 
   return absl::OkStatus();
 }
 
-}  // namespace transient::tools
+}  // namespace transient

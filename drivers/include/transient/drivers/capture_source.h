@@ -1,0 +1,94 @@
+// The interface every camera driver implements (DESIGN.md, "The data path"): a source of raw
+// AMCW frames with their exposure metadata. The simulator and the replay of recorded files
+// are sources like any other, so everything downstream runs without hardware.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "absl/time/time.h"
+#include "transient/reconstruct/acquisition.h"
+#include "transient/reconstruct/image.h"
+
+namespace transient {
+
+// Pinhole intrinsics and lens distortion of the sensor, in the conventions of ROS CameraInfo
+// (plumb_bob). Pixel (0, 0) is the centre of the top-left pixel; the optical frame has x right,
+// y down and z forward.
+struct CameraInfo {
+  ImageGeometry geometry;
+  double fx = 0.0, fy = 0.0;  // focal lengths, pixels
+  double cx = 0.0, cy = 0.0;  // principal point, pixels
+  std::array<double, 5> distortion{};  // k1, k2, p1, p2, k3
+  std::string model;                   // e.g. "transient simulator (pmd PhotonICs 19k-S3 like)"
+  double frame_period_s = 0.0;         // time between the starts of two raw frames; 0 = unknown
+};
+
+// What the source can be asked to produce.
+struct SourceCapabilities {
+  double min_frequency_hz = 0.0;  // 0 when unmodulated exposures are possible
+  double max_frequency_hz = 0.0;
+  bool arbitrary_phase_shift = false;  // sub-exposures at any phase (arccos, harmonic cancellation)
+  bool unmodulated_exposures = false;  // the zeroth-moment pair
+  double min_exposure_s = 0.0, max_exposure_s = 0.0;
+  bool replay = false;  // a recording: finite, ends with OutOfRange
+};
+
+// What a simulated scene really contains, per pixel: the returns of its impulse response and
+// the moments they have. Returns of one pixel are sorted by delay; unused entries hold NaN.
+struct GroundTruth {
+  ImageGeometry geometry;
+  int max_returns = 0;                  // R
+  std::vector<float> first_range_m;     // [H*W] range c*tau/2 of the earliest return; NaN if none
+  std::vector<float> return_range_m;    // [R, H, W] range of each return's onset (its mode for
+                                        // a continuous return), metres
+  std::vector<float> return_amplitude;  // [R, H, W] total light of each return (sensor units)
+  std::vector<float> return_spread_m;   // [R, H, W] 0 for a Dirac return, else the range
+                                        // extent holding most of a continuous return
+  MomentImage moments;                  // true c_0..c_m at the schedule's f, in the units a
+                                        // calibrated capture reproduces
+};
+
+// A source of raw frames. Use from one thread: Open, Start, Next... , Stop. Sources run the
+// acquisition schedule they were opened with, cycle after cycle, and stamp every frame with its
+// cycle, take, sequence and timestamp.
+class CaptureSource {
+ public:
+  virtual ~CaptureSource() = default;
+
+  // The URI the source was opened from, e.g. "sim:mirrors?m=3".
+  virtual const std::string& uri() const = 0;
+  virtual const CameraInfo& camera() const = 0;
+  virtual const AcquisitionSchedule& schedule() const = 0;
+  virtual SourceCapabilities capabilities() const = 0;
+
+  // Begins acquisition. FailedPrecondition when already started.
+  virtual absl::Status Start() = 0;
+  // The next raw frame, into `frame` (buffers reused). Codes: DeadlineExceeded when no frame
+  // came within `timeout` (the source stays usable); OutOfRange at the end of a recording;
+  // Unavailable when the device was lost; FailedPrecondition when not started; DataLoss for a
+  // frame a recording cannot deliver (the source moves on to the next one).
+  virtual absl::Status Next(absl::Duration timeout, RawFrame* frame) = 0;
+  // Ends acquisition; Start may be called again and continues where it stopped.
+  virtual absl::Status Stop() = 0;
+
+  // The ground truth of the scene at `timestamp_s`, when the source knows it (the simulator,
+  // the replay of a simulated capture); Unimplemented otherwise.
+  virtual absl::StatusOr<GroundTruth> GroundTruthAt(double timestamp_s) const {
+    (void)timestamp_s;
+    return absl::UnimplementedError(uri() + " has no ground truth");
+  }
+};
+
+// Opens a source by URI: "sim:<scene>?key=value&..." (simulator.h) or
+// "replay:<path>?loop=1&pace=realtime|fast" (replay_source.h). InvalidArgument for an unknown
+// scheme, scene or key, or an impossible schedule; NotFound / InvalidArgument / DataLoss for a
+// replay file that cannot be used. The message names what was wrong.
+[[nodiscard]] absl::StatusOr<std::unique_ptr<CaptureSource>> OpenSource(absl::string_view uri);
+
+}  // namespace transient

@@ -1,0 +1,196 @@
+// Acquisition schedules: the exposure list of one capture cycle and the sub-exposure split of
+// thesis §8.3.1.
+#include "transient/reconstruct/acquisition.h"
+
+#include <cmath>
+#include <numbers>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+
+namespace transient {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+// Bucket offsets of four-bucket sampling (thesis §8.3.1).
+constexpr double kBuckets[4] = {0.0, 0.5 * kPi, kPi, 1.5 * kPi};
+// Matching of recorded floating-point metadata: values written by a source and read back from a
+// file are equal to far better than this; a different configuration differs by far more.
+constexpr double kRelativeMatch = 1e-6;
+
+bool Near(double a, double b) { return std::abs(a - b) <= kRelativeMatch * std::max(1.0, std::abs(b)); }
+
+std::vector<SubExposure> MakeSubExposures(const ScheduleOptions& options) {
+  const int n = options.phase_steps;
+  std::vector<SubExposure> split;
+  switch (options.sampling) {
+    case SamplingScheme::kFourBucket:
+      split.push_back({0.0, 1.0});
+      break;
+    case SamplingScheme::kArccos:  // thesis eq. 8.7: equal shares
+      for (int k = 0; k < n; ++k) {
+        split.push_back({std::acos(1.0 - (2.0 * k + 1.0) / n), 1.0 / n});
+      }
+      break;
+    case SamplingScheme::kHarmonicCancellation: {  // Payne et al. 2010, thesis §8.3.1
+      double total = 0.0;
+      for (int k = 0; k < n; ++k) total += std::sin((k + 1) * kPi / (n + 1));
+      for (int k = 0; k < n; ++k) {
+        split.push_back({k * kPi / (n + 1), std::sin((k + 1) * kPi / (n + 1)) / total});
+      }
+      break;
+    }
+  }
+  return split;
+}
+
+std::string FrequencyText(double hz) {
+  if (hz >= 1e6) return absl::StrFormat("%g MHz", hz / 1e6);
+  if (hz >= 1e3) return absl::StrFormat("%g kHz", hz / 1e3);
+  return absl::StrFormat("%g Hz", hz);
+}
+
+}  // namespace
+
+absl::string_view SamplingSchemeName(SamplingScheme scheme) {
+  switch (scheme) {
+    case SamplingScheme::kFourBucket: return "four-bucket";
+    case SamplingScheme::kArccos: return "arccos";
+    case SamplingScheme::kHarmonicCancellation: return "harmonic-cancellation";
+  }
+  return "unknown";
+}
+
+absl::string_view ZerothSchemeName(ZerothScheme scheme) {
+  switch (scheme) {
+    case ZerothScheme::kUnmodulatedPair: return "pair";
+    case ZerothScheme::kLowFrequencyProxy: return "proxy";
+    case ZerothScheme::kEstimated: return "estimated";
+  }
+  return "unknown";
+}
+
+absl::StatusOr<SamplingScheme> ParseSamplingScheme(absl::string_view name) {
+  for (SamplingScheme s : {SamplingScheme::kFourBucket, SamplingScheme::kArccos,
+                           SamplingScheme::kHarmonicCancellation}) {
+    if (name == SamplingSchemeName(s)) return s;
+  }
+  return absl::InvalidArgumentError(absl::StrCat(
+      "unknown sampling scheme '", name, "'; expected four-bucket, arccos or harmonic-cancellation"));
+}
+
+absl::StatusOr<ZerothScheme> ParseZerothScheme(absl::string_view name) {
+  for (ZerothScheme s : {ZerothScheme::kUnmodulatedPair, ZerothScheme::kLowFrequencyProxy,
+                         ZerothScheme::kEstimated}) {
+    if (name == ZerothSchemeName(s)) return s;
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat("unknown zeroth-moment scheme '", name, "'; expected pair, proxy or estimated"));
+}
+
+absl::Status ScheduleOptions::Validate() const {
+  auto violated = [](absl::string_view field, auto value, absl::string_view rule) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, " = ", value, ". Violated constraint: ", rule));
+  };
+  if (!std::isfinite(base_frequency_hz) || base_frequency_hz <= 0.0) {
+    return violated("base_frequency_hz", base_frequency_hz, "finite and > 0");
+  }
+  if (order < 1 || order > kMaxOrder) {
+    return violated("order", order, absl::StrCat("1 <= order <= ", kMaxOrder));
+  }
+  if (phase_steps < 1 || phase_steps > 64) {
+    return violated("phase_steps", phase_steps, "1 <= phase_steps <= 64");
+  }
+  if (zeroth == ZerothScheme::kLowFrequencyProxy &&
+      (!std::isfinite(proxy_frequency_hz) || proxy_frequency_hz <= 0.0 ||
+       proxy_frequency_hz >= base_frequency_hz)) {
+    return violated("proxy_frequency_hz", proxy_frequency_hz,
+                    absl::StrCat("0 < proxy_frequency_hz < base_frequency_hz = ", base_frequency_hz));
+  }
+  if (!std::isfinite(exposure_s) || exposure_s <= 0.0 || exposure_s > 10.0) {
+    return violated("exposure_s", exposure_s, "0 < exposure_s <= 10");
+  }
+  if (takes < 1 || takes > 1024) return violated("takes", takes, "1 <= takes <= 1024");
+  return absl::OkStatus();
+}
+
+absl::StatusOr<AcquisitionSchedule> AcquisitionSchedule::Create(const ScheduleOptions& options) {
+  if (absl::Status status = options.Validate(); !status.ok()) return status;
+  AcquisitionSchedule schedule;
+  schedule.options_ = options;
+  if (options.sampling == SamplingScheme::kFourBucket) schedule.options_.phase_steps = 1;
+  schedule.sub_exposures_ = MakeSubExposures(schedule.options_);
+  Complex gain{0.0, 0.0};
+  for (const SubExposure& s : schedule.sub_exposures_) {
+    gain += s.weight * std::polar(1.0, -s.phase_shift_rad);
+  }
+  schedule.nominal_gain_ = gain;
+
+  for (int take = 0; take < options.takes; ++take) {
+    auto add = [&](int harmonic, double frequency_hz, double shift, bool illumination) {
+      ExposureConfig e;
+      e.harmonic = harmonic;
+      e.frequency_hz = frequency_hz;
+      e.phase_shift_rad = shift;
+      e.exposure_s = options.exposure_s;
+      e.illumination = illumination;
+      e.take = take;
+      schedule.exposures_.push_back(e);
+    };
+    switch (options.zeroth) {
+      case ZerothScheme::kUnmodulatedPair:
+        add(0, 0.0, 0.0, true);
+        add(0, 0.0, 0.0, false);
+        break;
+      case ZerothScheme::kLowFrequencyProxy:
+        for (double b : kBuckets) add(0, options.proxy_frequency_hz, b, true);
+        break;
+      case ZerothScheme::kEstimated:
+        break;
+    }
+    for (int j = 1; j <= options.order; ++j) {
+      for (double b : kBuckets) add(j, j * options.base_frequency_hz, b, true);
+    }
+  }
+  return schedule;
+}
+
+absl::StatusOr<int> AcquisitionSchedule::IndexOf(const ExposureConfig& config) const {
+  for (size_t i = 0; i < exposures_.size(); ++i) {
+    const ExposureConfig& e = exposures_[i];
+    if (e.harmonic == config.harmonic && e.take == config.take &&
+        e.illumination == config.illumination && Near(config.frequency_hz, e.frequency_hz) &&
+        std::abs(config.phase_shift_rad - e.phase_shift_rad) <= kRelativeMatch &&
+        Near(config.exposure_s, e.exposure_s)) {
+      return static_cast<int>(i);
+    }
+  }
+  return absl::InvalidArgumentError(absl::StrCat(
+      "frame ", config.sequence, " (", DescribeExposure(config),
+      ") is not an exposure of the schedule ", Describe()));
+}
+
+std::string AcquisitionSchedule::Describe() const {
+  std::string sampling(SamplingSchemeName(options_.sampling));
+  if (options_.sampling != SamplingScheme::kFourBucket) {
+    absl::StrAppend(&sampling, " (n_phi = ", options_.phase_steps, ")");
+  }
+  std::string zeroth(ZerothSchemeName(options_.zeroth));
+  if (options_.zeroth == ZerothScheme::kLowFrequencyProxy) {
+    absl::StrAppend(&zeroth, " at ", FrequencyText(options_.proxy_frequency_hz));
+  }
+  return absl::StrCat("f = ", FrequencyText(options_.base_frequency_hz), ", m = ", options_.order,
+                      ", ", sampling, ", zeroth: ", zeroth, ", ", options_.takes,
+                      options_.takes == 1 ? " take: " : " takes: ", raw_frames_per_frame(),
+                      " raw frames");
+}
+
+std::string DescribeExposure(const ExposureConfig& config) {
+  return absl::StrFormat(
+      "harmonic %d (%s), phase shift %.4f rad, exposure %g ms, illumination %s, take %d",
+      config.harmonic, FrequencyText(config.frequency_hz), config.phase_shift_rad,
+      config.exposure_s * 1e3, config.illumination ? "on" : "off", config.take);
+}
+
+}  // namespace transient

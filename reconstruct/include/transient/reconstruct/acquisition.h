@@ -1,0 +1,132 @@
+// The acquisition schedule of an AMCW camera (thesis §8.3): which exposures one capture cycle
+// takes, with which modulation frequency, phase shift and sub-exposure split, and the raw
+// frames that come out of them. Pure data and arithmetic: sources (drivers/) produce frames
+// in this vocabulary and the demodulator (demodulation.h) consumes them, so both depend on
+// this header and not on each other.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "transient/reconstruct/image.h"
+#include "transient/reconstruct/moments.h"
+
+namespace transient {
+
+// How each modulated exposure makes the effective modulation sinusoidal (thesis §8.3.1).
+enum class SamplingScheme {
+  kFourBucket,            // one phase shift per exposure; odd harmonics stay (prop. 8.3 needs more)
+  kArccos,                // n_phi equal sub-exposures at arccos(1 - (2k+1)/n_phi) (eq. 8.7)
+  kHarmonicCancellation,  // n_phi sub-exposures at k*pi/(n_phi+1), time ~ sin((k+1)*pi/(n_phi+1))
+};                        // [Payne et al. 2010]
+
+// How the zeroth moment c_0 is obtained (thesis §8.3.3).
+enum class ZerothScheme {
+  kUnmodulatedPair,    // two unmodulated exposures, illumination on and off: c_0 = on - off
+  kLowFrequencyProxy,  // four buckets at a low frequency (900 kHz): c_0 = |phasor|
+  kEstimated,          // not measured: estimated from lambda_min (reconstructor.h, kEstimate)
+};
+
+// "four-bucket", "arccos", "harmonic-cancellation"; "pair", "proxy", "estimated".
+absl::string_view SamplingSchemeName(SamplingScheme scheme);
+absl::string_view ZerothSchemeName(ZerothScheme scheme);
+// Inverse of the names above; InvalidArgument listing the accepted names otherwise.
+absl::StatusOr<SamplingScheme> ParseSamplingScheme(absl::string_view name);
+absl::StatusOr<ZerothScheme> ParseZerothScheme(absl::string_view name);
+
+struct ScheduleOptions {
+  double base_frequency_hz = 23e6;  // f; harmonic j is modulated at j*f
+  int order = 3;                    // m, 1 <= m <= kMaxOrder
+  SamplingScheme sampling = SamplingScheme::kArccos;
+  int phase_steps = 8;  // n_phi of arccos / harmonic cancellation, 1..64; four-bucket uses 1
+  ZerothScheme zeroth = ZerothScheme::kUnmodulatedPair;
+  double proxy_frequency_hz = 900e3;  // kLowFrequencyProxy only; below f
+  double exposure_s = 1.92e-3;        // of each raw frame (thesis §8.5.1)
+  int takes = 1;                      // repetitions of all exposures per transient frame, 1..1024
+
+  // Names the first violated constraint, e.g. "order = 0. Violated constraint: 1 <= order <= 16".
+  absl::Status Validate() const;
+};
+
+// One sub-exposure of a modulated exposure: the phase shift added to the bucket's and the share
+// of the exposure time it gets. The shares of one exposure sum to 1.
+struct SubExposure {
+  double phase_shift_rad = 0.0;
+  double weight = 1.0;
+};
+
+// The metadata an AMCW SDK attaches to one raw frame (one exposure of the sensor).
+struct ExposureConfig {
+  int harmonic = 0;            // j of c_j this exposure contributes to; 0 for the zeroth moment
+  double frequency_hz = 0.0;   // modulation frequency: j*f, the proxy frequency, or 0 (unmodulated)
+  double phase_shift_rad = 0;  // bucket offset between illumination and sensor modulation:
+                               // 0, pi/2, pi or 3*pi/2; 0 for unmodulated exposures
+  double exposure_s = 0.0;     // integration time
+  bool illumination = true;    // active illumination on
+  int take = 0;                // 0 <= take < takes
+  int64_t cycle = 0;           // index of the transient frame (capture cycle) this belongs to
+  uint64_t sequence = 0;       // running number of the raw frame at its source
+  double timestamp_s = 0.0;    // start of the exposure, seconds since the source started
+};
+
+// One raw image of the sensor with its exposure. `pixels` is row-major, pixel_count() values in
+// sensor units: ADC counts (DN) for a real or quantized simulated sensor, linear units for
+// float simulated data. NaN marks a pixel the source could not read; a value at or above
+// `saturation_level` is saturated (the demodulator flags such pixels, never uses them).
+struct RawFrame {
+  ExposureConfig config;
+  ImageGeometry geometry;
+  std::vector<float> pixels;
+  float saturation_level = std::numeric_limits<float>::infinity();
+};
+
+// The exposures of one capture cycle, in capture order: for each take, the zeroth-moment
+// exposures (if measured), then harmonics j = 1..m, each with buckets 0, pi/2, pi, 3*pi/2.
+// Every modulated exposure uses the same sub-exposure split.
+class AcquisitionSchedule {
+ public:
+  // InvalidArgument when `options` fails Validate().
+  [[nodiscard]] static absl::StatusOr<AcquisitionSchedule> Create(const ScheduleOptions& options);
+
+  const ScheduleOptions& options() const { return options_; }
+  int order() const { return options_.order; }
+  bool zeroth_measured() const { return options_.zeroth != ZerothScheme::kEstimated; }
+
+  // Exposures of one cycle with cycle = sequence = 0 and timestamp_s = 0.
+  std::span<const ExposureConfig> exposures() const { return exposures_; }
+  // Raw frames one transient frame costs (thesis §8.5.3: m = 3, four-bucket, c_0 estimated,
+  // one take -> 12).
+  int raw_frames_per_frame() const { return static_cast<int>(exposures_.size()); }
+  int exposures_per_take() const { return raw_frames_per_frame() / options_.takes; }
+
+  // The sub-exposure split of every modulated exposure.
+  std::span<const SubExposure> sub_exposures() const { return sub_exposures_; }
+  // sum_k w_k exp(-i theta_k): what the split does to a sinusoidal effective modulation, whose
+  // four-bucket phasor becomes nominal_gain() * c_j. The demodulator divides by it.
+  Complex nominal_gain() const { return nominal_gain_; }
+
+  // Position in exposures() of the exposure `config` describes (harmonic, frequency, phase
+  // shift, exposure time, illumination and take must match; cycle, sequence and timestamp are
+  // ignored). InvalidArgument describing the frame when none matches.
+  absl::StatusOr<int> IndexOf(const ExposureConfig& config) const;
+
+  // One line: "f = 23 MHz, m = 3, arccos (n_phi = 8), zeroth: pair, 1 take: 14 raw frames".
+  std::string Describe() const;
+
+ private:
+  ScheduleOptions options_;
+  std::vector<ExposureConfig> exposures_;
+  std::vector<SubExposure> sub_exposures_;
+  Complex nominal_gain_{1.0, 0.0};
+};
+
+// "harmonic 2 (46 MHz), phase shift 1.5708 rad, exposure 1.92 ms, illumination on, take 0".
+std::string DescribeExposure(const ExposureConfig& config);
+
+}  // namespace transient
