@@ -37,6 +37,7 @@ struct ReconstructCommandLine {
   std::string method = "both";
   std::string bias_mode = "raise";
   std::string zeroth = "measured";
+  CLI::Option* zeroth_option = nullptr;
   double bounds_r = 0.0;
   CLI::Option* bounds_r_option = nullptr;
   std::string frames;
@@ -67,10 +68,12 @@ CLI::App* AddReconstructCommand(CLI::App& app, ReconstructCommandLine& line) {
       ->add_option("--bias-mode", line.bias_mode,
                    "raise (raise c_0) or scale (scale c_1..c_m down)")
       ->capture_default_str();
-  command
-      ->add_option("--zeroth", line.zeroth,
-                   "measured (c_0 from the file) or estimate (from c_1..c_m)")
-      ->capture_default_str();
+  line.zeroth_option =
+      command
+          ->add_option("--zeroth", line.zeroth,
+                       "measured (c_0 from the file) or estimate (from c_1..c_m); default: what "
+                       "the file's /moments attribute zeroth says, else measured")
+          ->capture_default_str();
   command
       ->add_option("--threshold", args.threshold,
                    "a return counts when above T times the pixel's strongest (0 <= T < 1)")
@@ -94,6 +97,7 @@ absl::Status CompleteArgs(ReconstructCommandLine& line) {
   absl::StatusOr<transient::ZerothMoment> zeroth = transient::tools::ParseZeroth(line.zeroth);
   if (!zeroth.ok()) return zeroth.status();
   args.zeroth = *zeroth;
+  args.zeroth_from_file = line.zeroth_option->count() == 0;
   if (line.bounds_r_option->count() > 0) args.bounds_r = line.bounds_r;
   if (line.frames_option->count() > 0) {
     absl::StatusOr<transient::tools::FrameSlice> frames =

@@ -22,6 +22,8 @@ constexpr char kMomentsGroup[] = "/moments";
 constexpr char kRealPath[] = "/moments/real";
 constexpr char kImagPath[] = "/moments/imag";
 constexpr char kValidPath[] = "/moments/valid";
+constexpr char kFlagsPath[] = "/moments/flags";
+constexpr char kZerothAttribute[] = "zeroth";
 constexpr char kBaseFrequencyAttribute[] = "base_frequency_hz";
 constexpr char kFormatAttribute[] = "format";
 
@@ -118,6 +120,34 @@ absl::StatusOr<h5::Id> OpenMomentDataset(hid_t file, const std::string& file_pat
   return dataset;
 }
 
+// Opens an optional one-byte per-pixel dataset ([frames, height, width]: /moments/valid,
+// /moments/flags) and checks its type, shape and filters.
+absl::StatusOr<h5::Id> OpenPixelPlanes(hid_t id, const std::string& path, const char* dataset_path,
+                                       const std::vector<hsize_t>& expected) {
+  absl::StatusOr<h5::Id> dataset =
+      OpenObject(id, path, dataset_path, H5I_DATASET, "dataset (uint8, [frames, height, width])");
+  if (!dataset.ok()) return dataset.status();
+  const std::string where = absl::StrCat(path, ": ", dataset_path);
+  h5::Id type = h5::Datatype(H5Dget_type(dataset->get()));
+  const H5T_class_t type_class = H5Tget_class(type.get());
+  // h5py stores numpy booleans as a one-byte enum; accept them beside (u)int8.
+  if ((type_class != H5T_INTEGER && type_class != H5T_ENUM) || H5Tget_size(type.get()) != 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, ": expected uint8, found ", h5::DescribeType(type.get())));
+  }
+  h5::Id space = h5::Dataspace(H5Dget_space(dataset->get()));
+  const std::vector<hsize_t> dims = h5::Dimensions(space.get());
+  if (dims != expected) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        where, ": expected shape [frames, height, width] = ", h5::DimensionsToString(expected),
+        ", found ", h5::DimensionsToString(dims)));
+  }
+  if (absl::Status status = CheckFiltersAvailable(dataset->get(), where); !status.ok()) {
+    return status;
+  }
+  return dataset;
+}
+
 }  // namespace
 
 absl::StatusOr<MomentFile> MomentFile::Open(const std::string& path) {
@@ -195,30 +225,27 @@ absl::StatusOr<MomentFile> MomentFile::Open(const std::string& path) {
   }
   file.base_frequency_hz_ = *frequency;
 
-  if (h5::LinkExists(id, kValidPath)) {
-    absl::StatusOr<h5::Id> valid =
-        OpenObject(id, path, kValidPath, H5I_DATASET, "dataset (uint8, [frames, height, width])");
-    if (!valid.ok()) return valid.status();
-    const std::string where = absl::StrCat(path, ": ", kValidPath);
-    h5::Id type = h5::Datatype(H5Dget_type(valid->get()));
-    const H5T_class_t type_class = H5Tget_class(type.get());
-    // h5py stores numpy booleans as a one-byte enum; accept them beside (u)int8.
-    if ((type_class != H5T_INTEGER && type_class != H5T_ENUM) || H5Tget_size(type.get()) != 1) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(where, ": expected uint8, found ", h5::DescribeType(type.get())));
+  for (auto [dataset_path, target] : {std::pair{kValidPath, &file.valid_},
+                                      std::pair{kFlagsPath, &file.flags_}}) {
+    if (!h5::LinkExists(id, dataset_path)) continue;
+    absl::StatusOr<h5::Id> plane = OpenPixelPlanes(id, path, dataset_path, {frames, height, width});
+    if (!plane.ok()) return plane.status();
+    *target = *std::move(plane);
+  }
+  if (H5Aexists(group->get(), kZerothAttribute) > 0) {
+    absl::StatusOr<std::string> zeroth = h5::ReadStringAttribute(
+        group->get(), kZerothAttribute, absl::StrCat(path, ": ", kMomentsGroup));
+    if (!zeroth.ok()) return zeroth.status();
+    if (*zeroth == "measured") {
+      file.zeroth_hint_ = ZerothMoment::kMeasured;
+    } else if (*zeroth == "estimated") {
+      file.zeroth_hint_ = ZerothMoment::kEstimate;
+    } else {
+      return absl::InvalidArgumentError(absl::StrCat(path, ": ", kMomentsGroup, ": attribute ",
+                                                     kZerothAttribute,
+                                                     ": expected 'measured' or 'estimated', found '",
+                                                     *zeroth, "'"));
     }
-    h5::Id space = h5::Dataspace(H5Dget_space(valid->get()));
-    const std::vector<hsize_t> dims = h5::Dimensions(space.get());
-    const std::vector<hsize_t> expected = {frames, height, width};
-    if (dims != expected) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          where, ": expected shape [frames, height, width] = ", h5::DimensionsToString(expected),
-          ", found ", h5::DimensionsToString(dims)));
-    }
-    if (absl::Status status = CheckFiltersAvailable(valid->get(), where); !status.ok()) {
-      return status;
-    }
-    file.valid_ = *std::move(valid);
   }
   return file;
 }
@@ -255,23 +282,26 @@ absl::Status MomentFile::ReadFrame(int64_t frame, MomentImage* image) const {
       }
     }
   }
-  if (!valid_.valid()) {
-    image->valid.clear();
-    return absl::OkStatus();
-  }
-  image->valid.resize(pixels);
   const hsize_t start[3] = {static_cast<hsize_t>(frame), 0, 0};
   const hsize_t count[3] = {1, height, width};
   h5::Id memory = h5::Dataspace(H5Screate_simple(3, count, nullptr));
-  h5::Id selection = h5::Dataspace(H5Dget_space(valid_.get()));
-  h5::Id file_type = h5::Datatype(H5Dget_type(valid_.get()));
-  // The native form of the stored one-byte type: HDF5 converts neither enums to integers nor
-  // back, and both are one byte whose zero means "invalid".
-  h5::Id memory_type = h5::Datatype(H5Tget_native_type(file_type.get(), H5T_DIR_ASCEND));
-  if (H5Sselect_hyperslab(selection.get(), H5S_SELECT_SET, start, nullptr, count, nullptr) < 0 ||
-      H5Dread(valid_.get(), memory_type.get(), memory.get(), selection.get(), H5P_DEFAULT,
-              image->valid.data()) < 0) {
-    return read_failed(kValidPath);
+  for (auto [dataset, buffer, object] : {std::tuple{&valid_, &image->valid, kValidPath},
+                                         std::tuple{&flags_, &image->flags, kFlagsPath}}) {
+    if (!dataset->valid()) {
+      buffer->clear();
+      continue;
+    }
+    buffer->resize(pixels);
+    h5::Id selection = h5::Dataspace(H5Dget_space(dataset->get()));
+    h5::Id file_type = h5::Datatype(H5Dget_type(dataset->get()));
+    // The native form of the stored one-byte type: HDF5 converts neither enums to integers nor
+    // back, and both are one byte whose zero means "invalid" (valid) or "nothing" (flags).
+    h5::Id memory_type = h5::Datatype(H5Tget_native_type(file_type.get(), H5T_DIR_ASCEND));
+    if (H5Sselect_hyperslab(selection.get(), H5S_SELECT_SET, start, nullptr, count, nullptr) < 0 ||
+        H5Dread(dataset->get(), memory_type.get(), memory.get(), selection.get(), H5P_DEFAULT,
+                buffer->data()) < 0) {
+      return read_failed(object);
+    }
   }
   return absl::OkStatus();
 }

@@ -3,12 +3,14 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "transient/drivers/h5.h"
 #include "transient/reconstruct/image.h"
+#include "transient/reconstruct/reconstructor.h"
 
 namespace transient::tools {
 
@@ -37,9 +39,14 @@ class MomentFile {
   ImageGeometry geometry() const { return geometry_; }
   double base_frequency_hz() const { return base_frequency_hz_; }  // > 0 and finite
   bool has_valid_mask() const { return valid_.valid(); }
+  bool has_flags() const { return flags_.valid(); }
+  // How the file says c_0 was obtained (attribute /moments zeroth, "measured" or "estimated",
+  // written by `transient moments`); nullopt when the file does not say.
+  std::optional<ZerothMoment> zeroth_hint() const { return zeroth_hint_; }
 
   // Reads frame `frame` (0 <= frame < frames()) into `image`, reusing its buffers. float64
-  // data is converted to float32. `image->valid` is left empty when the file has no mask.
+  // data is converted to float32. `image->valid` (`image->flags`) is left empty when the file
+  // has no /moments/valid (/moments/flags).
   // DataLoss when HDF5 cannot read the frame (a corrupt or truncated file).
   absl::Status ReadFrame(int64_t frame, MomentImage* image) const;
 
@@ -51,6 +58,8 @@ class MomentFile {
   h5::Id real_;
   h5::Id imag_;
   h5::Id valid_;  // not valid() when the file has no /moments/valid
+  h5::Id flags_;  // not valid() when the file has no /moments/flags
+  std::optional<ZerothMoment> zeroth_hint_;
   int64_t frames_ = 0;
   int order_ = 0;
   ImageGeometry geometry_;

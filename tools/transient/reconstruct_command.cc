@@ -306,13 +306,15 @@ uint64_t PhysicalMemoryBytes() {
   return pages > 0 && page_size > 0 ? static_cast<uint64_t>(pages) * page_size : 0;
 }
 
-absl::StatusOr<ReconstructSummary> ReconstructFile(const ReconstructArgs& args,
+absl::StatusOr<ReconstructSummary> ReconstructFile(const ReconstructArgs& given_args,
                                                    const ReconstructHooks& hooks) {
   const auto start_time = std::chrono::steady_clock::now();
-  if (absl::Status status = args.Validate(); !status.ok()) return status;
+  if (absl::Status status = given_args.Validate(); !status.ok()) return status;
 
-  absl::StatusOr<MomentFile> input = MomentFile::Open(args.input_path);
+  absl::StatusOr<MomentFile> input = MomentFile::Open(given_args.input_path);
   if (!input.ok()) return input.status();
+  ReconstructArgs args = given_args;
+  if (args.zeroth_from_file && input->zeroth_hint().has_value()) args.zeroth = *input->zeroth_hint();
   absl::StatusOr<FrameRange> frames = ResolveFrameSlice(args.frames, input->frames());
   if (!frames.ok()) return InFile(args.input_path, frames.status());
 

@@ -45,6 +45,9 @@ struct ReconstructArgs {
   double bias_epsilon = 4e-3;  // lambda_min(C) >= epsilon * c_0 after biasing (thesis §8.5)
   BiasMode bias_mode = BiasMode::kRaiseZeroth;
   ZerothMoment zeroth = ZerothMoment::kMeasured;
+  // Use the input's /moments attribute `zeroth` instead of `zeroth` when the file has it (what
+  // `--zeroth` does when it is not given).
+  bool zeroth_from_file = false;
   double threshold = 0.1;                         // relative threshold of a return (RangeOptions)
   std::optional<double> bounds_r = std::nullopt;  // r in (0, 1): also write /bounds
   FrameSlice frames = {};                         // default ":" (all frames)
