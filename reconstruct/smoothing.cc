@@ -1,0 +1,117 @@
+// Gaussian smoothing of moment images over valid pixels (thesis §8.5).
+#include "transient/reconstruct/smoothing.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+
+namespace transient {
+namespace {
+
+// The separable passes: out(p) = sum_d k[|d|] in(p + d) along a row or a column, with pixels
+// outside the image counting as 0 (their weight is 0 in the denominator too, which is what
+// renormalises the borders). Written as sums of shifted rows so that the inner loops vectorize.
+void HorizontalPass(const std::vector<float>& kernel, int width, int height, const float* in,
+                    float* out, std::vector<float>& padded) {
+  const int radius = static_cast<int>(kernel.size()) - 1;
+  padded.assign(static_cast<size_t>(width + 2 * radius), 0.0f);
+  for (int y = 0; y < height; ++y) {
+    const float* row = in + static_cast<int64_t>(y) * width;
+    float* dst = out + static_cast<int64_t>(y) * width;
+    std::copy_n(row, width, padded.data() + radius);
+    const float* center = padded.data() + radius;
+    for (int x = 0; x < width; ++x) dst[x] = kernel[0] * center[x];
+    for (int d = 1; d <= radius; ++d) {
+      const float k = kernel[static_cast<size_t>(d)];
+      for (int x = 0; x < width; ++x) dst[x] += k * (center[x - d] + center[x + d]);
+    }
+  }
+}
+
+void VerticalPass(const std::vector<float>& kernel, int width, int height, const float* in,
+                  float* out) {
+  const int radius = static_cast<int>(kernel.size()) - 1;
+  for (int y = 0; y < height; ++y) {
+    float* dst = out + static_cast<int64_t>(y) * width;
+    const float* src = in + static_cast<int64_t>(y) * width;
+    for (int x = 0; x < width; ++x) dst[x] = kernel[0] * src[x];
+    for (int d = 1; d <= radius; ++d) {
+      const float k = kernel[static_cast<size_t>(d)];
+      if (y - d >= 0) {
+        const float* up = in + static_cast<int64_t>(y - d) * width;
+        for (int x = 0; x < width; ++x) dst[x] += k * up[x];
+      }
+      if (y + d < height) {
+        const float* down = in + static_cast<int64_t>(y + d) * width;
+        for (int x = 0; x < width; ++x) dst[x] += k * down[x];
+      }
+    }
+  }
+}
+
+}  // namespace
+
+absl::Status ValidateSmoothingSigma(double sigma_px) {
+  if (!(sigma_px >= 0.0 && sigma_px <= kMaxSmoothingSigmaPx)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("sigma_px = ", sigma_px,
+                     ". Violated constraint: finite and 0 <= sigma_px <= ", kMaxSmoothingSigmaPx));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status GaussianSmooth(double sigma_px, MomentImage* moments) {
+  if (absl::Status status = ValidateSmoothingSigma(sigma_px); !status.ok()) return status;
+  if (absl::Status status = moments->Validate(); !status.ok()) return status;
+  if (sigma_px == 0.0) return absl::OkStatus();
+
+  const int width = moments->geometry.width;
+  const int height = moments->geometry.height;
+  const int64_t pixels = moments->geometry.pixel_count();
+  const int m = moments->order;
+  const int radius = static_cast<int>(std::ceil(3.0 * sigma_px));
+  std::vector<float> kernel(static_cast<size_t>(radius + 1));
+  for (int d = 0; d <= radius; ++d) {
+    kernel[static_cast<size_t>(d)] =
+        static_cast<float>(std::exp(-0.5 * (d * d) / (sigma_px * sigma_px)));
+  }
+
+  // Weights: valid and finite in every plane (a NaN in a "valid" pixel must not spread).
+  std::vector<float> weight(static_cast<size_t>(pixels), 0.0f);
+  for (int64_t p = 0; p < pixels; ++p) {
+    bool usable = moments->valid.empty() || moments->valid[static_cast<size_t>(p)] != 0;
+    for (int j = 0; j <= m && usable; ++j) {
+      usable = std::isfinite(moments->real_plane(j)[p]) && std::isfinite(moments->imag_plane(j)[p]);
+    }
+    weight[static_cast<size_t>(p)] = usable ? 1.0f : 0.0f;
+  }
+  std::vector<float> tmp(static_cast<size_t>(pixels));
+  std::vector<float> norm(static_cast<size_t>(pixels));
+  std::vector<float> padded;
+  HorizontalPass(kernel, width, height, weight.data(), tmp.data(), padded);
+  VerticalPass(kernel, width, height, tmp.data(), norm.data());
+
+  std::vector<float> masked(static_cast<size_t>(pixels));
+  std::vector<float> smooth(static_cast<size_t>(pixels));
+  auto smooth_plane = [&](float* plane) {
+    for (int64_t p = 0; p < pixels; ++p) {
+      masked[static_cast<size_t>(p)] = weight[static_cast<size_t>(p)] != 0.0f ? plane[p] : 0.0f;
+    }
+    HorizontalPass(kernel, width, height, masked.data(), tmp.data(), padded);
+    VerticalPass(kernel, width, height, tmp.data(), smooth.data());
+    for (int64_t p = 0; p < pixels; ++p) {
+      if (weight[static_cast<size_t>(p)] != 0.0f) {
+        plane[p] = smooth[static_cast<size_t>(p)] / norm[static_cast<size_t>(p)];
+      }
+    }
+  };
+  for (int j = 0; j <= m; ++j) {
+    smooth_plane(moments->real_plane(j));
+    smooth_plane(moments->imag_plane(j));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace transient
