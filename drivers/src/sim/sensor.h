@@ -1,0 +1,58 @@
+// The simulated two-tap (differential) pixel and its read-out, like pmd and Kinect sensors:
+// tap A integrates the light weighted by the sensor modulation r, tap B by 1 - r; the raw value
+// is A - B above an ADC black level. Ambient light lands half in each tap of a modulated
+// exposure (it cancels in A - B but adds shot noise) and wholly in tap A of an unmodulated
+// one, like the active light, so the zeroth-moment pair's difference is the active light.
+#pragma once
+
+#include <cstdint>
+
+#include "transient/drivers/simulator.h"
+
+namespace transient::sim {
+
+// What one raw exposure integrates, per pixel (electrons).
+struct TapInput {
+  const float* differential = nullptr;  // expected A - B from the active light
+  const float* light = nullptr;         // active light reaching the pixel (both taps)
+  bool modulated = true;
+  bool illuminated = true;
+  double light_gain = 1.0;  // scales the active light (the gain jump of an outlier frame)
+};
+
+class Sensor {
+ public:
+  explicit Sensor(const SimulatorOptions& options);
+
+  // Output value = black_level() + (A - B) / electrons_per_unit(): ADC counts (DN), or
+  // electrons with black level 0 for adc_bits = 0.
+  double electrons_per_unit() const { return electrons_per_unit_; }
+  double black_level() const { return black_level_; }
+  // The value of a saturated pixel (a tap whose expected charge exceeds the full well, or the
+  // ADC clipping): the highest ADC code, or FLT_MAX for float output. Valid values stay below.
+  float saturation_level() const { return saturation_level_; }
+
+  // One raw frame of `count` pixels into `out`. The noise of row `row` of frame `sequence`
+  // comes from its own random stream, so frames are reproducible from the seed alone.
+  //  physical: each tap gets Poisson shot noise and Gaussian read noise; where both taps hold
+  //            at least kPoissonLimit electrons the shot noise is Gaussian with the same
+  //            variance, and A - B gets one normal of variance A + B + 2 * read_noise^2;
+  //  gaussian: A - B gets Gaussian noise of std light / snr (thesis fig. 8.12);
+  //  none:     expected values.
+  void ReadRow(const TapInput& input, int64_t offset, int count, uint64_t sequence, int row,
+               float* out) const;
+
+  static constexpr double kPoissonLimit = 20.0;
+
+ private:
+  NoiseModel noise_;
+  uint64_t seed_;
+  double ambient_e_;  // electrons per exposure
+  double full_well_, read_noise_, snr_;
+  int adc_bits_;
+  double electrons_per_unit_, black_level_;
+  float saturation_level_;
+  double max_valid_;  // the largest valid ADC code
+};
+
+}  // namespace transient::sim

@@ -1,0 +1,162 @@
+// Sensor effects of the simulator: noise statistics, reproducibility, outliers, saturation.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "tests/drivers/sim/sim_test_util.h"
+
+namespace transient::sim::testing {
+namespace {
+
+constexpr absl::string_view kSmall = "pace=fast&width=16&height=12";
+
+// Frames of `cycles` cycles, as [cycle][exposure].
+std::vector<std::vector<RawFrame>> Capture(absl::string_view uri, int cycles) {
+  auto source = OpenOrDie(uri);
+  std::vector<std::vector<RawFrame>> frames;
+  if (source == nullptr || !source->Start().ok()) return frames;
+  for (int c = 0; c < cycles; ++c) frames.push_back(CaptureCycle(*source));
+  return frames;
+}
+
+TEST(SensorNoise, StdOfAStaticPixelMatchesShotAndReadNoise) {
+  // Float output in electrons. Every exposure of a pixel holds light + ambient electrons in its
+  // two taps together (the noise-free "on" frame), so var(A - B) = on + 2 * read_noise^2.
+  constexpr double kReadNoise = 20.0;
+  constexpr int kCycles = 400;
+  // 192 pixels x 399 degrees of freedom: the pooled variance ratio has a std of 0.5 %.
+  constexpr double kVarianceTolerance = 0.03;
+  const std::string settings =
+      absl::StrCat(kSmall, "&adc_bits=0&read_noise=", kReadNoise, "&scheme=four-bucket");
+  const auto expected = Capture(absl::StrCat("sim:calibration?noise=none&", settings), 1);
+  const auto noisy = Capture(absl::StrCat("sim:calibration?noise=physical&", settings), kCycles);
+  ASSERT_EQ(noisy.size(), static_cast<size_t>(kCycles));
+  for (int e : {0, 3, 6}) {  // the "on" frame and two buckets
+    double ratio_sum = 0.0;
+    const int64_t count = expected[0][e].geometry.pixel_count();
+    for (int64_t p = 0; p < count; ++p) {
+      double mean = 0.0, square = 0.0;
+      for (const auto& cycle : noisy) mean += cycle[e].pixels[p];
+      mean /= kCycles;
+      for (const auto& cycle : noisy) square += std::pow(cycle[e].pixels[p] - mean, 2);
+      const double variance = square / (kCycles - 1);
+      const double model = expected[0][0].pixels[p] + 2.0 * kReadNoise * kReadNoise;
+      ratio_sum += variance / model;
+      EXPECT_NEAR(mean, expected[0][e].pixels[p], 5.0 * std::sqrt(model / kCycles));
+    }
+    EXPECT_NEAR(ratio_sum / count, 1.0, kVarianceTolerance) << "exposure " << e;
+  }
+}
+
+TEST(SensorNoise, GaussianNoiseHasStdSignalOverSnr) {
+  constexpr double kSnr = 50.0;
+  constexpr int kCycles = 300;
+  constexpr double kStdTolerance = 0.03;
+  const std::string settings = absl::StrCat(kSmall, "&adc_bits=0&scheme=four-bucket");
+  const auto expected = Capture(absl::StrCat("sim:calibration?noise=none&", settings), 1);
+  const auto noisy =
+      Capture(absl::StrCat("sim:calibration?noise=gaussian&snr=", kSnr, "&", settings), kCycles);
+  const int e = 4;
+  double ratio_sum = 0.0;
+  const int64_t count = expected[0][e].geometry.pixel_count();
+  for (int64_t p = 0; p < count; ++p) {
+    double square = 0.0;
+    for (const auto& cycle : noisy)
+      square += std::pow(cycle[e].pixels[p] - expected[0][e].pixels[p], 2);
+    const double light = expected[0][0].pixels[p] - expected[0][1].pixels[p];  // on - off
+    ratio_sum += std::sqrt(square / kCycles) / (light / kSnr);
+  }
+  EXPECT_NEAR(ratio_sum / count, 1.0, kStdTolerance);
+}
+
+TEST(SensorNoise, SameSeedGivesIdenticalFramesAndAnotherSeedOtherNoise) {
+  const auto a = Capture(absl::StrCat("sim:mirrors?seed=5&", kSmall), 2);
+  const auto b = Capture(absl::StrCat("sim:mirrors?seed=5&", kSmall), 2);
+  const auto c = Capture(absl::StrCat("sim:mirrors?seed=6&", kSmall), 2);
+  int differing = 0;
+  for (size_t k = 0; k < a.size(); ++k) {
+    for (size_t e = 0; e < a[k].size(); ++e) {
+      EXPECT_EQ(a[k][e].pixels, b[k][e].pixels);
+      differing += a[k][e].pixels != c[k][e].pixels;
+    }
+  }
+  EXPECT_EQ(differing, 2 * 14);
+}
+
+TEST(SensorNoise, NoiseFreeFramesRepeatEveryCycle) {
+  const auto frames = Capture(absl::StrCat("sim:mirrors?noise=none&", kSmall), 3);
+  for (size_t e = 0; e < frames[0].size(); ++e) EXPECT_EQ(frames[0][e].pixels, frames[2][e].pixels);
+}
+
+// Frames of a capture that differ from the outlier-free capture of the same options.
+int CountOutliers(absl::string_view settings, double rate, int cycles) {
+  const auto clean = Capture(absl::StrCat("sim:mirrors?noise=none&", settings), 1);
+  const auto frames =
+      Capture(absl::StrCat("sim:mirrors?noise=none&outliers=", rate, "&", settings), cycles);
+  int outliers = 0;
+  for (const auto& cycle : frames) {
+    for (size_t e = 0; e < cycle.size(); ++e) outliers += cycle[e].pixels != clean[0][e].pixels;
+  }
+  return outliers;
+}
+
+TEST(SensorNoise, OutlierFramesAppearAtTheConfiguredRate) {
+  constexpr double kRate = 0.08;
+  constexpr int kCycles = 150;  // 2100 frames
+  const double n = 14.0 * kCycles;
+  const double tolerance = 4.0 * std::sqrt(n * kRate * (1.0 - kRate));  // binomial, 4 sigma
+  EXPECT_NEAR(CountOutliers(kSmall, kRate, kCycles), n * kRate, tolerance);
+  EXPECT_EQ(CountOutliers(kSmall, 0.0, 20), 0);
+}
+
+TEST(SensorNoise, OutlierFramesDifferSignificantly) {
+  // Every frame an outlier: each one is off by more than 10 % of the light somewhere.
+  const auto clean = Capture(absl::StrCat("sim:mirrors?noise=none&adc_bits=0&", kSmall), 1);
+  const auto slipped =
+      Capture(absl::StrCat("sim:mirrors?noise=none&adc_bits=0&outliers=1&", kSmall), 1);
+  for (size_t e = 0; e < clean[0].size(); ++e) {
+    double worst = 0.0, light = 0.0;
+    for (size_t p = 0; p < clean[0][e].pixels.size(); ++p) {
+      worst = std::max(
+          worst, static_cast<double>(std::abs(slipped[0][e].pixels[p] - clean[0][e].pixels[p])));
+      light = std::max(light, static_cast<double>(clean[0][0].pixels[p] - clean[0][1].pixels[p]));
+    }
+    EXPECT_GT(worst, 0.1 * light) << "exposure " << e;
+  }
+}
+
+TEST(SensorNoise, SaturatedPixelsCarryTheSaturationLevel) {
+  const auto bright = Capture(absl::StrCat("sim:mirrors?brightness=1e10&", kSmall), 1);
+  const auto normal = Capture(absl::StrCat("sim:mirrors?", kSmall), 1);
+  for (size_t e = 0; e < bright[0].size(); ++e) {
+    const RawFrame& frame = bright[0][e];
+    EXPECT_EQ(frame.saturation_level, 4095.0f);
+    int saturated = 0;
+    for (float v : frame.pixels) saturated += v >= frame.saturation_level;
+    // The dark frame holds ambient light only.
+    if (frame.config.illumination) {
+      EXPECT_EQ(saturated, static_cast<int>(frame.pixels.size())) << "exposure " << e;
+    } else {
+      EXPECT_EQ(saturated, 0);
+    }
+    for (float v : normal[0][e].pixels) {
+      EXPECT_LT(v, normal[0][e].saturation_level);
+      EXPECT_GE(v, 0.0f);
+      EXPECT_EQ(v, std::floor(v)) << "12-bit ADC codes are integers";
+    }
+  }
+}
+
+TEST(SensorNoise, FloatOutputMarksFullTapsToo) {
+  const auto bright =
+      Capture(absl::StrCat("sim:calibration?adc_bits=0&brightness=1e10&", kSmall), 1);
+  EXPECT_EQ(bright[0][0].pixels[0], bright[0][0].saturation_level);
+  EXPECT_TRUE(std::isfinite(bright[0][0].saturation_level));
+}
+
+}  // namespace
+}  // namespace transient::sim::testing

@@ -1,0 +1,191 @@
+// The "sim:<scene>?key=value" URI: defaults, every key, and the errors that name what was wrong.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "tests/tools/status_matchers.h"
+#include "transient/drivers/simulator.h"
+
+namespace transient {
+namespace {
+
+using ::testing::HasSubstr;
+using tools::testing::IsOk;
+using tools::testing::StatusIs;
+
+TEST(SimulatorUri, SceneAloneGivesTheDocumentedDefaults) {
+  const absl::StatusOr<SimulatorOptions> o = ParseSimulatorUri("sim:mirrors");
+  ASSERT_THAT(o.status(), IsOk());
+  EXPECT_EQ(o->scene, "mirrors");
+  EXPECT_EQ(o->schedule.base_frequency_hz, 23e6);
+  EXPECT_EQ(o->schedule.order, 3);
+  EXPECT_EQ(o->schedule.sampling, SamplingScheme::kArccos);
+  EXPECT_EQ(o->schedule.phase_steps, 8);
+  EXPECT_EQ(o->schedule.zeroth, ZerothScheme::kUnmodulatedPair);
+  EXPECT_EQ(o->schedule.proxy_frequency_hz, 900e3);
+  EXPECT_EQ(o->schedule.exposure_s, 1.92e-3);
+  EXPECT_EQ(o->schedule.takes, 1);
+  EXPECT_EQ(o->width, 163);
+  EXPECT_EQ(o->height, 120);
+  EXPECT_EQ(o->waveform, Waveform::kSquare);
+  EXPECT_EQ(o->duty, 0.5);
+  EXPECT_EQ(o->gain_error, 0.05);
+  EXPECT_EQ(o->delay_error_ns, 0.3);
+  EXPECT_EQ(o->adc_bits, 12);
+  EXPECT_EQ(o->noise, NoiseModel::kPhysical);
+  EXPECT_EQ(o->snr, 70.0);
+  EXPECT_EQ(o->outliers, 0.0);
+  EXPECT_EQ(o->pace, Pace::kRealtime);
+  EXPECT_EQ(o->frames, 0);
+}
+
+TEST(SimulatorUri, KeyTableDefaultsParseToTheDefaultOptions) {
+  std::string uri = "sim:mirrors?";
+  for (const SimulatorKey& key : SimulatorKeys()) {
+    uri += std::string(key.name) + "=" + std::string(key.default_value) + "&";
+  }
+  const absl::StatusOr<SimulatorOptions> o = ParseSimulatorUri(uri);
+  ASSERT_THAT(o.status(), IsOk()) << uri;
+  EXPECT_EQ(FormatSimulatorUri(*o), "sim:mirrors");
+}
+
+TEST(SimulatorUri, EveryKeyIsParsed) {
+  const absl::StatusOr<SimulatorOptions> o = ParseSimulatorUri(
+      "sim:sparse?f=20e6&m=4&scheme=harmonic-cancellation&nphi=3&zeroth=proxy&proxy_f=1e6&"
+      "exposure=1e-3&takes=2&width=64&height=48&camera_seed=7&waveform=triangle&duty=0.3&"
+      "gain_error=0.1&delay_ns=-2&delay_error_ns=0.5&ambient=2e5&brightness=1e7&full_well=9000&"
+      "read_noise=5&adc_bits=14&noise=gaussian&snr=30&outliers=0.07&seed=9&readout=2e-3&"
+      "pace=fast&frames=5&k=4");
+  ASSERT_THAT(o.status(), IsOk());
+  EXPECT_EQ(o->scene, "sparse");
+  EXPECT_EQ(o->schedule.base_frequency_hz, 20e6);
+  EXPECT_EQ(o->schedule.order, 4);
+  EXPECT_EQ(o->schedule.sampling, SamplingScheme::kHarmonicCancellation);
+  EXPECT_EQ(o->schedule.phase_steps, 3);
+  EXPECT_EQ(o->schedule.zeroth, ZerothScheme::kLowFrequencyProxy);
+  EXPECT_EQ(o->schedule.proxy_frequency_hz, 1e6);
+  EXPECT_EQ(o->schedule.exposure_s, 1e-3);
+  EXPECT_EQ(o->schedule.takes, 2);
+  EXPECT_EQ(o->width, 64);
+  EXPECT_EQ(o->height, 48);
+  EXPECT_EQ(o->camera_seed, 7u);
+  EXPECT_EQ(o->waveform, Waveform::kTriangle);
+  EXPECT_EQ(o->duty, 0.3);
+  EXPECT_EQ(o->gain_error, 0.1);
+  EXPECT_EQ(o->delay_ns, -2.0);
+  EXPECT_EQ(o->delay_error_ns, 0.5);
+  EXPECT_EQ(o->ambient, 2e5);
+  EXPECT_EQ(o->brightness, 1e7);
+  EXPECT_EQ(o->full_well, 9000.0);
+  EXPECT_EQ(o->read_noise, 5.0);
+  EXPECT_EQ(o->adc_bits, 14);
+  EXPECT_EQ(o->noise, NoiseModel::kGaussian);
+  EXPECT_EQ(o->snr, 30.0);
+  EXPECT_EQ(o->outliers, 0.07);
+  EXPECT_EQ(o->seed, 9u);
+  EXPECT_EQ(o->readout_s, 2e-3);
+  EXPECT_EQ(o->pace, Pace::kFast);
+  EXPECT_EQ(o->frames, 5);
+  EXPECT_EQ(o->sparse_k, 4);
+  // And back: the formatted URI parses to the same options.
+  const absl::StatusOr<SimulatorOptions> again = ParseSimulatorUri(FormatSimulatorUri(*o));
+  ASSERT_THAT(again.status(), IsOk());
+  EXPECT_EQ(FormatSimulatorUri(*again), FormatSimulatorUri(*o));
+  EXPECT_EQ(again->outliers, 0.07);
+  EXPECT_EQ(again->schedule.sampling, SamplingScheme::kHarmonicCancellation);
+}
+
+TEST(SimulatorUri, EveryScenesIsAccepted) {
+  for (const SimulatorScene& scene : SimulatorScenes()) {
+    EXPECT_THAT(ParseSimulatorUri("sim:" + std::string(scene.name)).status(), IsOk());
+    EXPECT_FALSE(scene.description.empty());
+  }
+}
+
+TEST(SimulatorUri, UnknownSceneIsRefusedWithTheAcceptedOnes) {
+  EXPECT_THAT(ParseSimulatorUri("sim:kitchen?m=3").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("unknown scene 'kitchen'; expected one of mirrors, corner")));
+  EXPECT_THAT(ParseSimulatorUri("replay:x.h5").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("not a simulator URI")));
+}
+
+TEST(SimulatorUri, UnknownKeyIsRefusedWithTheAcceptedKeys) {
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?fps=30").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("unknown key 'fps'; accepted keys: f, m, scheme")));
+}
+
+TEST(SimulatorUri, MalformedValuesNameTheKey) {
+  using absl::StatusCode::kInvalidArgument;
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?f=fast").status(),
+              StatusIs(kInvalidArgument, HasSubstr("key f = 'fast' is not a finite number")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?f=inf").status(),
+              StatusIs(kInvalidArgument, HasSubstr("key f = 'inf' is not a finite number")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?width=1.5").status(),
+              StatusIs(kInvalidArgument, HasSubstr("key width = '1.5' is not an integer")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?waveform=saw").status(),
+              StatusIs(kInvalidArgument,
+                       HasSubstr("waveform = 'saw' is not accepted; expected one of sinusoid, "
+                                 "square, triangle")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?scheme=five-bucket").status(),
+              StatusIs(kInvalidArgument, HasSubstr("key scheme: unknown sampling scheme")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?noise=pink").status(),
+              StatusIs(kInvalidArgument, HasSubstr("noise = 'pink'")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?pace=slow").status(),
+              StatusIs(kInvalidArgument, HasSubstr("pace = 'slow'")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?zeroth=guess").status(),
+              StatusIs(kInvalidArgument, HasSubstr("key zeroth: unknown zeroth-moment scheme")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?m").status(),
+              StatusIs(kInvalidArgument, HasSubstr("malformed parameter 'm'")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?m=").status(),
+              StatusIs(kInvalidArgument, HasSubstr("malformed parameter 'm='")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?m=3&m=4").status(),
+              StatusIs(kInvalidArgument, HasSubstr("key m given twice")));
+}
+
+TEST(SimulatorUri, OutOfRangeValuesNameTheViolatedConstraint) {
+  using absl::StatusCode::kInvalidArgument;
+  EXPECT_THAT(
+      ParseSimulatorUri("sim:mirrors?width=0").status(),
+      StatusIs(kInvalidArgument, HasSubstr("width = 0. Violated constraint: 8 <= width <= 640")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?height=481").status(),
+              StatusIs(kInvalidArgument, HasSubstr("8 <= height <= 480")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?duty=1").status(),
+              StatusIs(kInvalidArgument, HasSubstr("duty = 1. Violated constraint: 0 < duty < 1")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?adc_bits=4").status(),
+              StatusIs(kInvalidArgument, HasSubstr("adc_bits = 4")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?outliers=1.5").status(),
+              StatusIs(kInvalidArgument, HasSubstr("0 <= outliers <= 1")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?snr=0").status(),
+              StatusIs(kInvalidArgument, HasSubstr("snr = 0")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?frames=-1").status(),
+              StatusIs(kInvalidArgument, HasSubstr("frames = -1")));
+  EXPECT_THAT(ParseSimulatorUri("sim:sparse?k=9").status(),
+              StatusIs(kInvalidArgument, HasSubstr("1 <= k <= 8")));
+}
+
+TEST(SimulatorUri, ImpossibleSchedulesAreRefusedWithTheirKey) {
+  using absl::StatusCode::kInvalidArgument;
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?m=0").status(),
+              StatusIs(kInvalidArgument, HasSubstr("key m: order = 0. Violated constraint")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?nphi=65").status(),
+              StatusIs(kInvalidArgument, HasSubstr("key nphi: phase_steps = 65")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?zeroth=proxy&proxy_f=30e6").status(),
+              StatusIs(kInvalidArgument, HasSubstr("key proxy_f: proxy_frequency_hz = 3e+07")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?exposure=0").status(),
+              StatusIs(kInvalidArgument, HasSubstr("key exposure: exposure_s = 0")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?f=100e6&m=8").status(),
+              StatusIs(kInvalidArgument, HasSubstr("m*f = 8e+08 Hz <= 5e+08 Hz")));
+}
+
+TEST(SimulatorOptions, OpenValidatesTheOptions) {
+  SimulatorOptions options;
+  options.width = 7;
+  EXPECT_THAT(OpenSimulator(options).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("width = 7")));
+}
+
+}  // namespace
+}  // namespace transient

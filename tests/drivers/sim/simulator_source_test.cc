@@ -1,0 +1,279 @@
+// The simulator as a CaptureSource: stream protocol, frame metadata, camera, ground truth of
+// every scene, and the fixed pattern that belongs to the camera.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "tests/drivers/sim/sim_test_util.h"
+#include "tests/tools/status_matchers.h"
+#include "transient/drivers/simulator.h"
+
+namespace transient::sim::testing {
+namespace {
+
+using ::testing::HasSubstr;
+using tools::testing::IsOk;
+using tools::testing::StatusIs;
+
+constexpr absl::string_view kSmall = "pace=fast&width=24&height=16";
+
+TEST(SimulatorSource, NextBeforeStartIsFailedPrecondition) {
+  auto source = OpenOrDie(absl::StrCat("sim:mirrors?", kSmall));
+  RawFrame frame;
+  EXPECT_THAT(source->Next(absl::Seconds(1), &frame),
+              StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("before Start")));
+  ASSERT_THAT(source->Start(), IsOk());
+  EXPECT_THAT(source->Start(),
+              StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("already")));
+  EXPECT_THAT(source->Next(absl::Seconds(1), &frame), IsOk());
+  ASSERT_THAT(source->Stop(), IsOk());
+  EXPECT_THAT(source->Next(absl::Seconds(1), &frame),
+              StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("before Start")));
+}
+
+TEST(SimulatorSource, FramesLimitEndsWithOutOfRangeAfterThatManyCycles) {
+  auto source = OpenOrDie(absl::StrCat("sim:mirrors?frames=2&", kSmall));
+  ASSERT_THAT(source->Start(), IsOk());
+  RawFrame frame;
+  const int expected = 2 * source->schedule().raw_frames_per_frame();
+  for (int i = 0; i < expected; ++i) ASSERT_THAT(source->Next(absl::Seconds(1), &frame), IsOk());
+  EXPECT_EQ(frame.config.cycle, 1);
+  EXPECT_THAT(source->Next(absl::Seconds(1), &frame),
+              StatusIs(absl::StatusCode::kOutOfRange, HasSubstr("2 transient frames")));
+}
+
+TEST(SimulatorSource, FramesFollowTheScheduleWithRunningMetadata) {
+  auto source = OpenOrDie(absl::StrCat("sim:corner?takes=2&readout=1e-3&", kSmall));
+  ASSERT_THAT(source->Start(), IsOk());
+  const AcquisitionSchedule& schedule = source->schedule();
+  const double period = 1.92e-3 + 1e-3;
+  EXPECT_DOUBLE_EQ(source->camera().frame_period_s, period);
+  RawFrame frame;
+  for (int i = 0; i < 3 * schedule.raw_frames_per_frame(); ++i) {
+    ASSERT_THAT(source->Next(absl::Seconds(1), &frame), IsOk());
+    const ExposureConfig& expected = schedule.exposures()[i % schedule.raw_frames_per_frame()];
+    EXPECT_EQ(frame.config.harmonic, expected.harmonic);
+    EXPECT_EQ(frame.config.frequency_hz, expected.frequency_hz);
+    EXPECT_EQ(frame.config.phase_shift_rad, expected.phase_shift_rad);
+    EXPECT_EQ(frame.config.illumination, expected.illumination);
+    EXPECT_EQ(frame.config.take, expected.take);
+    EXPECT_EQ(frame.config.cycle, i / schedule.raw_frames_per_frame());
+    EXPECT_EQ(frame.config.sequence, static_cast<uint64_t>(i));
+    EXPECT_DOUBLE_EQ(frame.config.timestamp_s, i * period);
+    EXPECT_THAT(schedule.IndexOf(frame.config).status(), IsOk());
+    EXPECT_EQ(frame.geometry, (ImageGeometry{24, 16}));
+    EXPECT_EQ(frame.pixels.size(), 24u * 16u);
+  }
+}
+
+TEST(SimulatorSource, StopAndStartContinueTheSequence) {
+  auto source = OpenOrDie(absl::StrCat("sim:sparse?", kSmall));
+  RawFrame frame;
+  ASSERT_THAT(source->Start(), IsOk());
+  ASSERT_THAT(source->Next(absl::Seconds(1), &frame), IsOk());
+  ASSERT_THAT(source->Stop(), IsOk());
+  ASSERT_THAT(source->Start(), IsOk());
+  ASSERT_THAT(source->Next(absl::Seconds(1), &frame), IsOk());
+  EXPECT_EQ(frame.config.sequence, 1u);
+}
+
+TEST(SimulatorSource, RealtimePaceDeliversFramesAtTheFramePeriod) {
+  // 10 ms frame period: 6 frames take at least 50 ms; a 1 ms timeout before a due frame is
+  // DeadlineExceeded and the frame is still delivered afterwards.
+  auto source =
+      OpenOrDie("sim:mirrors?pace=realtime&width=16&height=12&exposure=1e-3&readout=9e-3");
+  ASSERT_THAT(source->Start(), IsOk());
+  RawFrame frame;
+  const absl::Time begin = absl::Now();
+  for (int i = 0; i < 6; ++i) ASSERT_THAT(source->Next(absl::Seconds(1), &frame), IsOk());
+  EXPECT_GE(absl::Now() - begin, absl::Milliseconds(50));
+  EXPECT_THAT(source->Next(absl::Milliseconds(1), &frame),
+              StatusIs(absl::StatusCode::kDeadlineExceeded, HasSubstr("no frame within")));
+  EXPECT_THAT(source->Next(absl::Seconds(1), &frame), IsOk());
+  EXPECT_EQ(frame.config.sequence, 6u);
+}
+
+TEST(SimulatorSource, CameraHasPlausibleIntrinsicsAndCapabilities) {
+  auto source = OpenOrDie("sim:mirrors?pace=fast");
+  const CameraInfo& camera = source->camera();
+  EXPECT_EQ(camera.geometry, (ImageGeometry{163, 120}));
+  EXPECT_GT(camera.fx, 100.0);
+  EXPECT_EQ(camera.fx, camera.fy);
+  EXPECT_DOUBLE_EQ(camera.cx, 81.0);
+  EXPECT_DOUBLE_EQ(camera.cy, 59.5);
+  EXPECT_THAT(camera.distortion, ::testing::Each(0.0));
+  EXPECT_THAT(camera.model, HasSubstr("simulator"));
+  const SourceCapabilities caps = source->capabilities();
+  EXPECT_TRUE(caps.unmodulated_exposures);
+  EXPECT_TRUE(caps.arbitrary_phase_shift);
+  EXPECT_FALSE(caps.replay);
+  EXPECT_EQ(source->uri(), "sim:mirrors?pace=fast");
+}
+
+TEST(SimulatorSource, OpenSimulatorReportsItsCanonicalUri) {
+  SimulatorOptions options;
+  options.scene = "corner";
+  options.schedule.order = 4;
+  options.pace = Pace::kFast;
+  auto source = OpenSimulator(options);
+  ASSERT_THAT(source.status(), IsOk());
+  EXPECT_EQ((*source)->uri(), "sim:corner?m=4&pace=fast");
+}
+
+// Per pixel, the returns with amplitude.
+std::vector<int> ReturnCounts(const GroundTruth& truth) {
+  const int64_t count = truth.geometry.pixel_count();
+  std::vector<int> counts(count, 0);
+  for (int r = 0; r < truth.max_returns; ++r) {
+    for (int64_t p = 0; p < count; ++p)
+      counts[p] += !std::isnan(truth.return_range_m[r * count + p]);
+  }
+  return counts;
+}
+
+TEST(GroundTruth, MirrorsHasThreeSeparableReturnsPerPixel) {
+  // Pisarenko with m = 3 separates them with noise when they are at least 2 ns (0.3 m of range)
+  // apart, also modulo the 23 MHz period (6.5 m of range).
+  constexpr double kMinSeparation_m = 0.3;
+  const double period_m = 0.5 * kSpeedOfLight / 23e6;
+  auto source = OpenOrDie("sim:mirrors?pace=fast");
+  const GroundTruth truth = *source->GroundTruthAt(0.0);
+  ASSERT_EQ(truth.max_returns, 3);
+  const int64_t count = truth.geometry.pixel_count();
+  EXPECT_THAT(ReturnCounts(truth), ::testing::Each(3));
+  double closest = INFINITY;
+  for (int64_t p = 0; p < count; ++p) {
+    for (int a = 0; a < 3; ++a) {
+      for (int b = a + 1; b < 3; ++b) {
+        const double d =
+            std::abs(truth.return_range_m[b * count + p] - truth.return_range_m[a * count + p]);
+        closest = std::min({closest, d, period_m - d});
+      }
+      EXPECT_GT(truth.return_amplitude[a * count + p], 0.0f);
+      EXPECT_EQ(truth.return_spread_m[a * count + p], 0.0f);
+    }
+    EXPECT_LT(truth.return_range_m[count + p], truth.return_range_m[2 * count + p]) << "sorted";
+    EXPECT_EQ(truth.first_range_m[p], truth.return_range_m[p]);
+    EXPECT_NEAR(truth.first_range_m[p], 2.0, 0.6) << "the wall is 2 m away";
+  }
+  EXPECT_GT(closest, kMinSeparation_m);
+}
+
+TEST(GroundTruth, CalibrationIsADiracAtZeroWithAllMomentsEqual) {
+  auto source = OpenOrDie("sim:calibration?pace=fast&width=32&height=24");
+  const GroundTruth truth = *source->GroundTruthAt(0.0);
+  ASSERT_EQ(truth.max_returns, 1);
+  for (int64_t p = 0; p < truth.geometry.pixel_count(); ++p) {
+    EXPECT_EQ(truth.first_range_m[p], 0.0f);
+    const double c0 = TrueMoment(truth, 0, p).real();
+    EXPECT_GT(c0, 0.0);
+    for (int j = 1; j <= 3; ++j)
+      EXPECT_NEAR(std::abs(TrueMoment(truth, j, p) - c0), 0.0, 1e-6 * c0);
+  }
+}
+
+TEST(GroundTruth, CornerHasADirectDiracAndALaterContinuousReturn) {
+  auto source = OpenOrDie("sim:corner?pace=fast");
+  const GroundTruth truth = *source->GroundTruthAt(0.0);
+  ASSERT_EQ(truth.max_returns, 2);
+  const int64_t count = truth.geometry.pixel_count();
+  int with_indirect = 0;
+  for (int64_t p = 0; p < count; ++p) {
+    ASSERT_FALSE(std::isnan(truth.first_range_m[p]));
+    EXPECT_EQ(truth.return_spread_m[p], 0.0f);
+    // The corner's edge is 2 m away, its visible walls nearer.
+    EXPECT_GT(truth.first_range_m[p], 1.0);
+    EXPECT_LT(truth.first_range_m[p], 2.2);
+    if (std::isnan(truth.return_range_m[count + p])) continue;
+    ++with_indirect;
+    EXPECT_GE(truth.return_range_m[count + p], truth.return_range_m[p]);
+    EXPECT_GT(truth.return_spread_m[count + p], 0.0f);
+    EXPECT_LT(truth.return_amplitude[count + p], truth.return_amplitude[p]);
+  }
+  EXPECT_EQ(with_indirect, count);
+  // Multipath: the magnitude of c_1 is less than c_0.
+  EXPECT_LT(std::abs(TrueMoment(truth, 1, count / 2)),
+            0.999 * TrueMoment(truth, 0, count / 2).real());
+}
+
+TEST(GroundTruth, SparseHasKReturnsPerPixelFromTheSeed) {
+  auto a = OpenOrDie("sim:sparse?pace=fast&k=5&seed=3&width=16&height=12");
+  auto b = OpenOrDie("sim:sparse?pace=fast&k=5&seed=4&width=16&height=12");
+  const GroundTruth ta = *a->GroundTruthAt(0.0), tb = *b->GroundTruthAt(0.0);
+  EXPECT_EQ(ta.max_returns, 5);
+  EXPECT_THAT(ReturnCounts(ta), ::testing::Each(5));
+  EXPECT_NE(ta.return_range_m, tb.return_range_m);
+}
+
+TEST(GroundTruth, VideoChangesWithTimeAndHoldsWithinACycle) {
+  auto source = OpenOrDie("sim:video?pace=fast");
+  const double cycle = 14 * source->camera().frame_period_s;
+  const GroundTruth start = *source->GroundTruthAt(0.0);
+  const GroundTruth within = *source->GroundTruthAt(0.5 * cycle);
+  const GroundTruth later = *source->GroundTruthAt(1.5);
+  EXPECT_EQ(start.first_range_m, within.first_range_m);
+  int changed = 0;
+  for (size_t p = 0; p < start.first_range_m.size(); ++p) {
+    changed += std::abs(start.first_range_m[p] - later.first_range_m[p]) > 0.1f;
+  }
+  EXPECT_GT(changed, 100) << "the person moved";
+  // The person (2 m) stands in front of the wall (3 m).
+  const auto [nearest, farthest] =
+      std::minmax_element(start.first_range_m.begin(), start.first_range_m.end());
+  EXPECT_LT(*nearest, 2.2f);
+  EXPECT_GT(*farthest, 3.0f);
+  EXPECT_THAT(source->GroundTruthAt(-1.0).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("timestamp_s")));
+}
+
+TEST(GroundTruth, VideoFramesFollowTheScene) {
+  auto source = OpenOrDie("sim:video?pace=fast&noise=none&width=48&height=32");
+  ASSERT_THAT(source->Start(), IsOk());
+  const std::vector<RawFrame> first = CaptureCycle(*source);
+  for (int c = 0; c < 40; ++c) CaptureCycle(*source);
+  const std::vector<RawFrame> later = CaptureCycle(*source);
+  EXPECT_NE(first[3].pixels, later[3].pixels);
+}
+
+// Per pixel and harmonic, demodulated (ideal sinusoid, no noise) over true moments: the gain
+// and delay errors of the camera, g_p * exp(i*2*pi*j*f*d_p).
+std::vector<Complex> CameraErrors(absl::string_view scene, int camera_seed) {
+  auto source = OpenOrDie(absl::StrCat("sim:", scene, "?camera_seed=", camera_seed,
+                                       "&waveform=sinusoid&noise=none&adc_bits=0&", kSmall));
+  EXPECT_THAT(source->Start(), IsOk());
+  const auto moments = Demodulate(CaptureCycle(*source), source->schedule());
+  const GroundTruth truth = *source->GroundTruthAt(0.0);
+  std::vector<Complex> errors;
+  for (int j = 1; j <= 3; ++j) {
+    for (size_t p = 0; p < moments[j].size(); ++p) {
+      errors.push_back(moments[j][p] / TrueMoment(truth, j, p));
+    }
+  }
+  return errors;
+}
+
+TEST(FixedPattern, BelongsToTheCameraNotTheScene) {
+  // The calibration scene's moments never vanish; the mirrors' could, so compare only where
+  // the ratio is well conditioned.
+  constexpr double kSame = 1e-4;
+  const auto calibration = CameraErrors("calibration", 11);
+  const auto mirrors = CameraErrors("mirrors", 11);
+  const auto other_camera = CameraErrors("calibration", 12);
+  double largest_difference = 0.0;
+  for (size_t i = 0; i < calibration.size(); ++i) {
+    EXPECT_NEAR(std::abs(calibration[i] - mirrors[i]), 0.0, kSame) << i;
+    largest_difference = std::max(largest_difference, std::abs(calibration[i] - other_camera[i]));
+  }
+  EXPECT_GT(largest_difference, 0.05);
+  // Not the identity: the default camera has gain and delay errors.
+  EXPECT_GT(std::abs(calibration[0] - 1.0), 0.01);
+}
+
+}  // namespace
+}  // namespace transient::sim::testing
