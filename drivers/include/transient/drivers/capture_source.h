@@ -86,7 +86,8 @@ class CaptureSource {
 };
 
 // Opens a source by URI: "sim:<scene>?key=value&..." (simulator.h) or
-// "replay:<path>?loop=1&pace=realtime|fast" (replay_source.h). InvalidArgument for an unknown
+// "replay:<path>?loop=0|1&pace=realtime|fast&start=<cycle>" (replay_source.h; default pace
+// realtime, no loop). InvalidArgument for an unknown
 // scheme, scene or key, or an impossible schedule; NotFound / InvalidArgument / DataLoss for a
 // replay file that cannot be used. The message names what was wrong.
 [[nodiscard]] absl::StatusOr<std::unique_ptr<CaptureSource>> OpenSource(absl::string_view uri);
