@@ -3,14 +3,20 @@
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <csignal>
+#include <functional>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "transient/drivers/simulator.h"
 #include "tools/transient/bench_command.h"
+#include "tools/transient/capture_commands.h"
 #include "tools/transient/exit_status.h"
 #include "tools/transient/progress_bar.h"
 #include "tools/transient/reconstruct_command.h"
@@ -184,6 +190,170 @@ int RunBenchCommand(const BenchCommandLine& line) {
   return 0;
 }
 
+// Runs `run` with SIGINT/SIGTERM handling and a progress bar; prints its summary or its error.
+template <typename Summary>
+int RunWithProgress(const std::function<absl::StatusOr<Summary>(
+                        const transient::tools::CommandHooks&)>& run,
+                    const std::function<std::string(const Summary&)>& format) {
+  std::signal(SIGINT, OnInterrupt);
+  std::signal(SIGTERM, OnInterrupt);
+  std::unique_ptr<transient::tools::ProgressBar> progress;
+  transient::tools::CommandHooks hooks{
+      .on_progress =
+          [&](int64_t done, int64_t total) {
+            if (progress == nullptr) {
+              progress = std::make_unique<transient::tools::ProgressBar>(stderr, total);
+            }
+            progress->Update(done);
+          },
+      .cancel = &interrupted,
+  };
+  absl::StatusOr<Summary> summary = run(hooks);
+  progress.reset();
+  if (!summary.ok()) {
+    std::cerr << ErrorLine(summary.status()) << "\n";
+    return ExitCodeFor(summary.status());
+  }
+  std::cout << format(*summary) << "\n";
+  return 0;
+}
+
+// Keys of the simulator URI that `transient sim` offers as options of their own.
+struct SimCommandLine {
+  std::string scene;
+  transient::tools::RecordArgs record;
+  int64_t frames = 10;
+  std::vector<std::string> keys;  // --set key=value
+  // Options mapped onto URI keys when given.
+  std::vector<std::pair<std::string, std::string>> options = {
+      {"m", ""}, {"f", ""}, {"scheme", ""}, {"nphi", ""}, {"zeroth", ""}, {"takes", ""},
+      {"noise", ""}, {"snr", ""}, {"seed", ""}, {"camera_seed", ""}, {"width", ""},
+      {"height", ""}, {"waveform", ""}, {"outliers", ""}};
+};
+
+std::string SimHelp() {
+  std::string text = "Scenes:\n";
+  for (const transient::SimulatorScene& scene : transient::SimulatorScenes()) {
+    absl::StrAppend(&text, "  ", scene.name, ": ", scene.description, "\n");
+  }
+  absl::StrAppend(&text, "Keys for --set key=value (URI sim:<scene>?key=value&...):\n");
+  for (const transient::SimulatorKey& key : transient::SimulatorKeys()) {
+    absl::StrAppend(&text, "  ", key.name, " (default ", key.default_value,
+                    key.unit.empty() ? "" : absl::StrCat(" ", key.unit), "): ", key.description,
+                    "\n");
+  }
+  return text;
+}
+
+CLI::App* AddSimCommand(CLI::App& app, SimCommandLine& line) {
+  CLI::App* command = app.add_subcommand(
+      "sim", "Simulate an AMCW camera looking at a scene and record it as a capture file "
+             "(transient-capture 1) with the scene's ground truth.");
+  command->footer(SimHelp());
+  command->add_option("scene", line.scene, "mirrors, corner, sparse, video or calibration")
+      ->required();
+  command->add_option("--out", line.record.output_path, "capture file to write (must not exist)")
+      ->required();
+  command->add_option("--frames", line.frames, "transient frames (capture cycles) to simulate")
+      ->capture_default_str();
+  for (auto& [key, value] : line.options) {
+    std::string flag = "--" + key;
+    for (char& c : flag) c = c == '_' ? '-' : c;
+    command->add_option(flag, value, "the simulator key " + key + " (see below)");
+  }
+  command->add_option("--set", line.keys, "any simulator key as key=value (repeatable)");
+  command->add_option("--deflate", line.record.deflate_level, "deflate level 0..9")
+      ->capture_default_str();
+  return command;
+}
+
+int RunSimCommand(SimCommandLine& line) {
+  std::vector<std::string> keys;
+  for (const auto& [key, value] : line.options) {
+    if (!value.empty()) keys.push_back(key + "=" + value);
+  }
+  keys.insert(keys.end(), line.keys.begin(), line.keys.end());
+  absl::StatusOr<std::string> uri = transient::tools::SimUri(line.scene, line.frames, keys);
+  if (!uri.ok()) {
+    std::cerr << ErrorLine(uri.status()) << "\n";
+    return kExitBadInput;
+  }
+  line.record.source_uri = *uri;
+  line.record.frames = line.frames;
+  return RunWithProgress<transient::tools::RecordSummary>(
+      [&](const transient::tools::CommandHooks& hooks) {
+        return transient::tools::RunRecord(line.record, hooks);
+      },
+      transient::tools::FormatRecordSummary);
+}
+
+CLI::App* AddRecordCommand(CLI::App& app, transient::tools::RecordArgs& args) {
+  CLI::App* command = app.add_subcommand(
+      "record", "Record raw frames from a source into a capture file (transient-capture 1); "
+                "flushed at least once a second, readable after a crash up to the last flush.");
+  command->add_option("--source", args.source_uri,
+                      "sim:<scene>?key=value&... or replay:<capture.h5>?loop=0&pace=fast")
+      ->required();
+  command->add_option("--out", args.output_path, "capture file to write (must not exist)")
+      ->required();
+  command->add_option("--frames", args.frames, "transient frames (capture cycles) to record");
+  command->add_option("--seconds", args.seconds, "wall-clock seconds to record");
+  command->add_option("--deflate", args.deflate_level, "deflate level 0..9")
+      ->capture_default_str();
+  return command;
+}
+
+CLI::App* AddCalibrateCommand(CLI::App& app, transient::tools::CalibrateArgs& args) {
+  CLI::App* command = app.add_subcommand(
+      "calibrate",
+      "Measure per-pixel, per-harmonic correction factors against a Dirac at zero (thesis "
+      "§8.3.2) and write a calibration file (transient-calibration 1). Use the same camera and "
+      "schedule as the captures it will correct.");
+  command->add_option("--source", args.source_uri,
+                      "source looking at a Dirac at zero, e.g. sim:calibration?m=3")
+      ->capture_default_str();
+  command->add_option("--out", args.output_path, "calibration file to write")->required();
+  command->add_option("--takes", args.takes, "capture cycles to average (1..256)")
+      ->capture_default_str();
+  return command;
+}
+
+CLI::App* AddMomentsCommand(CLI::App& app, transient::tools::MomentsArgs& args) {
+  CLI::App* command = app.add_subcommand(
+      "moments", "Demodulate and calibrate a capture into a moment file (transient-moments 1) "
+                 "for transient reconstruct.");
+  command->add_option("capture", args.capture_path, "capture file (transient-capture 1)")
+      ->required();
+  command->add_option("--out", args.output_path, "moment file to write")->required();
+  command->add_option("--calibration", args.calibration_path,
+                      "calibration file (default: the one embedded in the capture)");
+  command->add_flag("--uncalibrated", args.uncalibrated, "demodulate without a calibration");
+  command->add_option("--smooth", args.smoothing_sigma_px,
+                      "Gaussian smoothing sigma in pixels, 0 = none (thesis §8.5)")
+      ->capture_default_str();
+  command->add_flag("--video", args.video,
+                    "fill outlier captures from the previous frame and flag them (thesis §8.5)");
+  return command;
+}
+
+CLI::App* AddInfoCommand(CLI::App& app, std::string& path) {
+  CLI::App* command = app.add_subcommand(
+      "info", "Say what a file is (capture, calibration, moments, reconstruction), its layout "
+              "and a summary of its content.");
+  command->add_option("file", path, "HDF5 file")->required();
+  return command;
+}
+
+int RunInfoCommand(const std::string& path) {
+  absl::StatusOr<std::string> text = transient::tools::DescribeFile(path);
+  if (!text.ok()) {
+    std::cerr << ErrorLine(text.status()) << "\n";
+    return ExitCodeFor(text.status());
+  }
+  std::cout << *text << "\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -195,6 +365,16 @@ int main(int argc, char** argv) {
   CLI::App* reconstruct = AddReconstructCommand(app, reconstruct_line);
   BenchCommandLine bench_line;
   CLI::App* bench = AddBenchCommand(app, bench_line);
+  SimCommandLine sim_line;
+  CLI::App* sim = AddSimCommand(app, sim_line);
+  transient::tools::RecordArgs record_args;
+  CLI::App* record = AddRecordCommand(app, record_args);
+  transient::tools::CalibrateArgs calibrate_args;
+  CLI::App* calibrate = AddCalibrateCommand(app, calibrate_args);
+  transient::tools::MomentsArgs moments_args;
+  CLI::App* moments = AddMomentsCommand(app, moments_args);
+  std::string info_path;
+  CLI::App* info = AddInfoCommand(app, info_path);
 
   try {
     app.parse(argc, argv);
@@ -207,5 +387,28 @@ int main(int argc, char** argv) {
   }
   if (reconstruct->parsed()) return RunReconstructCommand(reconstruct_line);
   if (bench->parsed()) return RunBenchCommand(bench_line);
+  if (sim->parsed()) return RunSimCommand(sim_line);
+  if (record->parsed()) {
+    return RunWithProgress<transient::tools::RecordSummary>(
+        [&](const transient::tools::CommandHooks& hooks) {
+          return transient::tools::RunRecord(record_args, hooks);
+        },
+        transient::tools::FormatRecordSummary);
+  }
+  if (calibrate->parsed()) {
+    return RunWithProgress<transient::tools::CalibrateSummary>(
+        [&](const transient::tools::CommandHooks& hooks) {
+          return transient::tools::RunCalibrate(calibrate_args, hooks);
+        },
+        transient::tools::FormatCalibrateSummary);
+  }
+  if (moments->parsed()) {
+    return RunWithProgress<transient::tools::MomentsSummary>(
+        [&](const transient::tools::CommandHooks& hooks) {
+          return transient::tools::RunMoments(moments_args, hooks);
+        },
+        transient::tools::FormatMomentsSummary);
+  }
+  if (info->parsed()) return RunInfoCommand(info_path);
   return kExitBadInput;  // unreachable: exactly one subcommand is required
 }

@@ -1,0 +1,598 @@
+// record / sim, calibrate, moments and info: the measurement half of the `transient` tool.
+#include "tools/transient/capture_commands.h"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <utility>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "tools/transient/moment_file.h"
+#include "tools/transient/moment_file_writer.h"
+#include "tools/transient/temporary_output.h"
+#include "transient/drivers/calibration_file.h"
+#include "transient/drivers/capture_file.h"
+#include "transient/drivers/capture_source.h"
+#include "transient/drivers/h5.h"
+#include "transient/drivers/simulator.h"
+#include "transient/reconstruct/calibration.h"
+#include "transient/reconstruct/cycle_assembler.h"
+#include "transient/reconstruct/demodulation.h"
+#include "transient/reconstruct/smoothing.h"
+
+namespace transient::tools {
+namespace {
+
+// How long a recording waits for a frame before it calls the source lost. Generous: a real
+// camera delivers a frame every few milliseconds, and replay or the simulator at once.
+constexpr absl::Duration kFrameTimeout = absl::Seconds(10);
+// Dropped cycles listed by name in a summary; the rest are only counted.
+constexpr size_t kMaxListedProblems = 5;
+
+bool Cancelled(const CommandHooks& hooks) {
+  return hooks.cancel != nullptr && hooks.cancel->load();
+}
+
+void Progress(const CommandHooks& hooks, int64_t done, int64_t total) {
+  if (hooks.on_progress) hooks.on_progress(done, total);
+}
+
+absl::Status Prefixed(absl::string_view prefix, const absl::Status& status) {
+  return absl::Status(status.code(), absl::StrCat(prefix, ": ", status.message()));
+}
+
+// uint16 storage is exact for ADC counts; anything else (float simulation, NaN) needs float32.
+bool FitsUint16(const RawFrame& frame) {
+  if (!(frame.saturation_level <= 65535.0f) && !std::isinf(frame.saturation_level)) return false;
+  if (std::isfinite(frame.saturation_level) && frame.saturation_level != std::floor(frame.saturation_level)) {
+    return false;
+  }
+  return std::all_of(frame.pixels.begin(), frame.pixels.end(), [](float v) {
+    return v >= 0.0f && v <= 65535.0f && v == std::floor(v);
+  });
+}
+
+std::string Frequency(double hz) {
+  if (hz >= 1e6) return absl::StrFormat("%g MHz", hz / 1e6);
+  if (hz >= 1e3) return absl::StrFormat("%g kHz", hz / 1e3);
+  return absl::StrFormat("%g Hz", hz);
+}
+
+}  // namespace
+
+absl::Status RecordArgs::Validate() const {
+  if (source_uri.empty()) return absl::InvalidArgumentError("--source: expected a source URI");
+  if (output_path.empty()) return absl::InvalidArgumentError("--out: expected a file name");
+  if (frames < 0) {
+    return absl::InvalidArgumentError(absl::StrCat("--frames = ", frames, ": expected >= 1"));
+  }
+  if (!(seconds >= 0.0) || !std::isfinite(seconds)) {
+    return absl::InvalidArgumentError(absl::StrCat("--seconds = ", seconds, ": expected > 0"));
+  }
+  if ((frames > 0) == (seconds > 0.0)) {
+    return absl::InvalidArgumentError("give exactly one of --frames N and --seconds S");
+  }
+  if (deflate_level < 0 || deflate_level > 9) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--deflate = ", deflate_level, ": expected 0..9"));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::string> SimUri(const std::string& scene, int64_t frames,
+                                   const std::vector<std::string>& keys) {
+  if (frames < 1) {
+    return absl::InvalidArgumentError(absl::StrCat("--frames = ", frames, ": expected >= 1"));
+  }
+  std::string uri = absl::StrCat("sim:", scene, "?pace=fast&frames=", frames);
+  for (const std::string& key : keys) {
+    if (!absl::StrContains(key, '=')) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--set '", key, "': expected key=value (see transient sim --help)"));
+    }
+    absl::StrAppend(&uri, "&", key);
+  }
+  absl::StatusOr<SimulatorOptions> options = ParseSimulatorUri(uri);
+  if (!options.ok()) return options.status();
+  return uri;
+}
+
+absl::StatusOr<RecordSummary> RunRecord(const RecordArgs& args, const CommandHooks& hooks) {
+  if (absl::Status status = args.Validate(); !status.ok()) return status;
+  if (std::filesystem::exists(args.output_path)) {
+    return absl::AlreadyExistsError(absl::StrCat(
+        args.output_path, ": exists; a recording never replaces a file (remove it first)"));
+  }
+  absl::StatusOr<std::unique_ptr<CaptureSource>> opened = OpenSource(args.source_uri);
+  if (!opened.ok()) return opened.status();
+  CaptureSource& source = **opened;
+  const AcquisitionSchedule& schedule = source.schedule();
+  const int64_t per_cycle = schedule.raw_frames_per_frame();
+
+  RecordSummary summary{.output_path = args.output_path, .source_uri = args.source_uri,
+                        .schedule = schedule.Describe()};
+  if (absl::Status status = source.Start(); !status.ok()) return status;
+  const auto start = std::chrono::steady_clock::now();
+  auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  std::optional<CaptureWriter> writer;
+  RawFrame frame;
+  absl::Status failure;
+  while (!Cancelled(hooks)) {
+    if (args.frames > 0 && summary.raw_frames >= args.frames * per_cycle) break;
+    if (args.seconds > 0 && elapsed() >= args.seconds && summary.raw_frames % per_cycle == 0) break;
+    absl::Status next = source.Next(kFrameTimeout, &frame);
+    if (absl::IsOutOfRange(next)) break;  // the end of a recording ends this one too
+    if (absl::IsDeadlineExceeded(next)) {
+      failure = absl::UnavailableError(absl::StrCat(args.source_uri, ": no frame within ",
+                                                    absl::FormatDuration(kFrameTimeout)));
+      break;
+    }
+    if (!next.ok()) {
+      failure = next;
+      break;
+    }
+    if (!writer.has_value()) {
+      CaptureWriterOptions options{
+          .pixel_type = FitsUint16(frame) ? CapturePixelType::kUint16 : CapturePixelType::kFloat32,
+          .deflate_level = args.deflate_level,
+          .source_uri = args.source_uri,
+          .saturation_level = frame.saturation_level};
+      absl::StatusOr<CaptureWriter> created =
+          CaptureWriter::Create(args.output_path, source.camera(), schedule, options);
+      if (!created.ok()) return created.status();
+      writer.emplace(*std::move(created));
+      if (args.ground_truth) {
+        absl::StatusOr<GroundTruth> truth = source.GroundTruthAt(frame.config.timestamp_s);
+        if (truth.ok()) {
+          if (absl::Status status = writer->SetGroundTruth(*truth); !status.ok()) return status;
+          summary.ground_truth = true;
+        }
+      }
+    }
+    if (absl::Status status = writer->Append(frame); !status.ok()) {
+      failure = status;
+      break;
+    }
+    ++summary.raw_frames;
+    if (args.frames > 0) {
+      Progress(hooks, summary.raw_frames, args.frames * per_cycle);
+    } else {
+      Progress(hooks, std::min<int64_t>(static_cast<int64_t>(elapsed() * 10), args.seconds * 10),
+               static_cast<int64_t>(args.seconds * 10));
+    }
+  }
+  summary.interrupted = Cancelled(hooks);
+  (void)source.Stop();
+  summary.seconds = elapsed();
+  summary.cycles = summary.raw_frames / per_cycle;
+  if (!writer.has_value()) {
+    if (!failure.ok()) return failure;
+    return absl::FailedPreconditionError(
+        absl::StrCat(args.source_uri, ": the source delivered no frame; nothing recorded"));
+  }
+  if (absl::Status status = writer->Close(); !status.ok()) return status;
+  if (!failure.ok()) {
+    return Prefixed(absl::StrCat("recording stopped after ", summary.raw_frames, " raw frames (",
+                                 args.output_path, " keeps them)"),
+                    failure);
+  }
+  return summary;
+}
+
+std::string FormatRecordSummary(const RecordSummary& s) {
+  return absl::StrFormat(
+      "%s: %d raw frames = %d transient frames from %s in %.1f s%s%s\n  schedule: %s",
+      s.output_path, s.raw_frames, s.cycles, s.source_uri, s.seconds,
+      s.ground_truth ? ", with ground truth" : "", s.interrupted ? " (interrupted)" : "",
+      s.schedule);
+}
+
+absl::Status CalibrateArgs::Validate() const {
+  if (source_uri.empty()) return absl::InvalidArgumentError("--source: expected a source URI");
+  if (output_path.empty()) return absl::InvalidArgumentError("--out: expected a file name");
+  if (takes < 1 || takes > 256) {
+    return absl::InvalidArgumentError(absl::StrCat("--takes = ", takes, ": expected 1..256"));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<CalibrateSummary> RunCalibrate(const CalibrateArgs& args,
+                                              const CommandHooks& hooks) {
+  if (absl::Status status = args.Validate(); !status.ok()) return status;
+  absl::StatusOr<TemporaryOutput> output = TemporaryOutput::Prepare(args.output_path);
+  if (!output.ok()) return output.status();
+  absl::StatusOr<std::unique_ptr<CaptureSource>> opened = OpenSource(args.source_uri);
+  if (!opened.ok()) return opened.status();
+  CaptureSource& source = **opened;
+  const AcquisitionSchedule& schedule = source.schedule();
+  const ImageGeometry geometry = source.camera().geometry;
+
+  // The cycles become takes of one long cycle, so that the demodulator's averaging with
+  // outlier rejection (thesis §8.5) treats the whole calibration at once.
+  const int source_takes = schedule.options().takes;
+  ScheduleOptions combined_options = schedule.options();
+  combined_options.takes = args.takes * source_takes;
+  absl::StatusOr<AcquisitionSchedule> combined = AcquisitionSchedule::Create(combined_options);
+  if (!combined.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--takes = ", args.takes, " with ", source_takes,
+        " takes per frame of the source exceeds the 1024 takes one calibration can average"));
+  }
+  absl::StatusOr<Demodulator> demodulator = Demodulator::Create(*combined, geometry, {});
+  if (!demodulator.ok()) return demodulator.status();
+  absl::StatusOr<CycleAssembler> assembler = CycleAssembler::Create(schedule, geometry);
+  if (!assembler.ok()) return assembler.status();
+
+  std::vector<RawFrame> frames;
+  frames.reserve(static_cast<size_t>(combined->raw_frames_per_frame()));
+  if (absl::Status status = source.Start(); !status.ok()) return status;
+  int cycles = 0;
+  RawFrame frame;
+  while (cycles < args.takes) {
+    if (Cancelled(hooks)) return absl::CancelledError("interrupted; no calibration written");
+    absl::Status next = source.Next(kFrameTimeout, &frame);
+    if (absl::IsOutOfRange(next)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          args.source_uri, ": ended after ", cycles, " complete frames; --takes asks for ",
+          args.takes));
+    }
+    if (!next.ok()) return next;
+    absl::StatusOr<bool> complete = assembler->Add(std::move(frame));
+    if (!complete.ok() || !*complete) continue;  // an incomplete cycle is dropped, not used
+    for (RawFrame& f : assembler->TakeCycle()) {
+      f.config.take += cycles * source_takes;
+      f.config.cycle = 0;
+      frames.push_back(std::move(f));
+    }
+    ++cycles;
+    Progress(hooks, cycles, args.takes);
+  }
+  (void)source.Stop();
+
+  MomentImage moments;
+  DemodulationReport report;
+  if (absl::Status status = demodulator->Demodulate(frames, &moments, &report); !status.ok()) {
+    return status;
+  }
+  absl::StatusOr<CalibrationTable> table =
+      EstimateCalibration(moments, schedule.options(), report.frames_used /
+                                                           std::max(1, schedule.exposures_per_take()));
+  if (!table.ok()) return table.status();
+  if (absl::Status status = WriteCalibrationFile(output->temporary_path(), *table); !status.ok()) {
+    return status;
+  }
+  if (Cancelled(hooks)) return absl::CancelledError("interrupted; no calibration written");
+  if (absl::Status status = output->Commit(); !status.ok()) return status;
+
+  CalibrateSummary summary{.output_path = args.output_path,
+                           .takes_averaged = table->takes_averaged,
+                           .frames_rejected = static_cast<int>(report.rejected.size()),
+                           .pixels = geometry.pixel_count(),
+                           .schedule = schedule.Describe()};
+  summary.usable_pixels = std::count(table->valid.begin(), table->valid.end(), uint8_t{1});
+  return summary;
+}
+
+std::string FormatCalibrateSummary(const CalibrateSummary& s) {
+  return absl::StrFormat(
+      "%s: calibration from %d takes (%d outlier raw frames left out), %d of %d pixels "
+      "usable\n  schedule: %s",
+      s.output_path, s.takes_averaged, s.frames_rejected, s.usable_pixels, s.pixels, s.schedule);
+}
+
+absl::Status MomentsArgs::Validate() const {
+  if (capture_path.empty()) return absl::InvalidArgumentError("expected a capture file");
+  if (output_path.empty()) return absl::InvalidArgumentError("--out: expected a file name");
+  if (uncalibrated && !calibration_path.empty()) {
+    return absl::InvalidArgumentError("--uncalibrated and --calibration exclude each other");
+  }
+  if (absl::Status status = ValidateSmoothingSigma(smoothing_sigma_px); !status.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("--smooth: ", status.message()));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<MomentsSummary> RunMoments(const MomentsArgs& args, const CommandHooks& hooks) {
+  if (absl::Status status = args.Validate(); !status.ok()) return status;
+  absl::StatusOr<CaptureReader> capture = CaptureReader::Open(args.capture_path);
+  if (!capture.ok()) return capture.status();
+  const AcquisitionSchedule& schedule = capture->schedule();
+  const ImageGeometry geometry = capture->camera().geometry;
+
+  MomentsSummary summary{.output_path = args.output_path};
+  std::optional<CalibrationTable> calibration;
+  if (!args.calibration_path.empty()) {
+    absl::StatusOr<CalibrationTable> read = ReadCalibrationFile(args.calibration_path);
+    if (!read.ok()) return read.status();
+    calibration = *std::move(read);
+    summary.calibration = args.calibration_path;
+  } else if (capture->calibration().has_value() && !args.uncalibrated) {
+    calibration = capture->calibration();
+    summary.calibration = absl::StrCat(args.capture_path, ": /calibration");
+  } else if (!args.uncalibrated) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        args.capture_path, ": no calibration: pass --calibration FILE (made by transient "
+        "calibrate) or --uncalibrated"));
+  } else {
+    summary.calibration = "none";
+  }
+  if (calibration.has_value()) {
+    if (absl::Status status = CheckCalibrationMatches(*calibration, schedule.options(), geometry);
+        !status.ok()) {
+      return Prefixed(absl::StrCat(summary.calibration, " does not fit ", args.capture_path),
+                      status);
+    }
+  }
+
+  absl::StatusOr<TemporaryOutput> output = TemporaryOutput::Prepare(args.output_path);
+  if (!output.ok()) return output.status();
+  absl::StatusOr<MomentFileWriter> writer = MomentFileWriter::Create(
+      output->temporary_path(),
+      MomentFileHeader{.geometry = geometry, .order = schedule.order(),
+                       .base_frequency_hz = schedule.options().base_frequency_hz,
+                       .zeroth = schedule.options().zeroth, .source = args.capture_path,
+                       .calibration = summary.calibration,
+                       .smoothing_sigma_px = args.smoothing_sigma_px});
+  if (!writer.ok()) return writer.status();
+  absl::StatusOr<CycleAssembler> assembler = CycleAssembler::Create(schedule, geometry);
+  if (!assembler.ok()) return assembler.status();
+  absl::StatusOr<Demodulator> demodulator =
+      Demodulator::Create(schedule, geometry, DemodulationOptions{.video = args.video});
+  if (!demodulator.ok()) return demodulator.status();
+
+  auto problem = [&](const absl::Status& status) {
+    if (summary.problems.size() < kMaxListedProblems) {
+      summary.problems.push_back(std::string(status.message()));
+    }
+  };
+  MomentImage moments;
+  RawFrame frame;
+  DemodulationReport report;
+  for (int64_t i = 0; i < capture->frames(); ++i) {
+    if (Cancelled(hooks)) return absl::CancelledError("interrupted; no moment file written");
+    if (absl::Status status = capture->Read(i, &frame); !status.ok()) {
+      ++summary.raw_frames_dropped;  // its cycle is then incomplete and dropped below
+      problem(status);
+      continue;
+    }
+    const double timestamp_s = frame.config.timestamp_s;
+    absl::StatusOr<bool> complete = assembler->Add(std::move(frame));
+    if (!complete.ok()) {
+      if (absl::IsDataLoss(complete.status())) ++summary.cycles_dropped;
+      problem(complete.status());
+    }
+    if (!complete.ok() || !*complete) {
+      Progress(hooks, i + 1, capture->frames());
+      continue;
+    }
+    std::vector<RawFrame> cycle = assembler->TakeCycle();
+    double cycle_start_s = timestamp_s;
+    for (const RawFrame& f : cycle) cycle_start_s = std::min(cycle_start_s, f.config.timestamp_s);
+    if (absl::Status status = demodulator->Demodulate(cycle, &moments, &report); !status.ok()) {
+      ++summary.cycles_dropped;
+      problem(status);
+      continue;
+    }
+    summary.raw_frames_rejected += static_cast<int64_t>(report.rejected.size());
+    summary.filled_pixels += report.filled_pixels;
+    summary.saturated_pixels += report.saturated_pixels;
+    if (calibration.has_value()) {
+      if (absl::Status status = ApplyCalibration(*calibration, &moments); !status.ok()) {
+        return status;
+      }
+    }
+    if (absl::Status status = GaussianSmooth(args.smoothing_sigma_px, &moments); !status.ok()) {
+      return status;
+    }
+    if (absl::Status status = writer->Append(moments, cycle_start_s); !status.ok()) return status;
+    ++summary.frames_written;
+    Progress(hooks, i + 1, capture->frames());
+  }
+  if (assembler->frames_pending() > 0) {
+    ++summary.cycles_dropped;
+    problem(absl::DataLossError(absl::StrCat(
+        "the last transient frame is incomplete (", assembler->frames_pending(), " of ",
+        schedule.raw_frames_per_frame(), " raw frames)")));
+  }
+  summary.raw_frames_dropped += assembler->dropped_frames();
+  if (summary.frames_written == 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        args.capture_path, ": no complete transient frame among its ", capture->frames(),
+        " raw frames (", schedule.raw_frames_per_frame(), " make one: ", schedule.Describe(),
+        ")", summary.problems.empty() ? "" : absl::StrCat("; ", summary.problems.front())));
+  }
+  if (absl::Status status = writer->Close(); !status.ok()) return status;
+  if (Cancelled(hooks)) return absl::CancelledError("interrupted; no moment file written");
+  if (absl::Status status = output->Commit(); !status.ok()) return status;
+  return summary;
+}
+
+std::string FormatMomentsSummary(const MomentsSummary& s) {
+  std::string text = absl::StrFormat(
+      "%s: %d transient frames (calibration: %s); %d incomplete or refused frames dropped, %d "
+      "outlier raw frames rejected, %d pixels filled from the previous frame, %d saturated",
+      s.output_path, s.frames_written, s.calibration, s.cycles_dropped, s.raw_frames_rejected,
+      s.filled_pixels, s.saturated_pixels);
+  for (const std::string& p : s.problems) absl::StrAppend(&text, "\n  dropped: ", p);
+  return text;
+}
+
+namespace {
+
+std::string DescribeCamera(const CameraInfo& camera) {
+  return absl::StrFormat(
+      "camera: %dx%d px, fx %.2f fy %.2f cx %.2f cy %.2f px, %s, frame period %.3f ms",
+      camera.geometry.width, camera.geometry.height, camera.fx, camera.fy, camera.cx, camera.cy,
+      camera.model.empty() ? "unnamed" : camera.model, camera.frame_period_s * 1e3);
+}
+
+absl::StatusOr<std::string> DescribeCapture(const std::string& path) {
+  absl::StatusOr<CaptureReader> capture = CaptureReader::Open(path);
+  if (!capture.ok()) return capture.status();
+  const AcquisitionSchedule& schedule = capture->schedule();
+  const int64_t frames = capture->frames();
+  std::string text = absl::StrCat(path, ": capture (transient-capture 1)\n  source: ",
+                                  capture->source_uri(), "\n  ", DescribeCamera(capture->camera()),
+                                  "\n  schedule: ", schedule.Describe());
+  const int64_t per_cycle = schedule.raw_frames_per_frame();
+  absl::StrAppend(&text, absl::StrFormat(
+                             "\n  frames: %d raw (%s, saturation at %g) = %d complete transient "
+                             "frames%s",
+                             frames,
+                             capture->pixel_type() == CapturePixelType::kUint16 ? "uint16"
+                                                                                 : "float32",
+                             capture->saturation_level(), frames / per_cycle,
+                             frames % per_cycle == 0
+                                 ? ""
+                                 : absl::StrCat(" + ", frames % per_cycle, " raw frames")));
+  if (frames > 0) {
+    const double first = capture->config(0).timestamp_s;
+    const double last = capture->config(frames - 1).timestamp_s;
+    absl::StrAppend(&text, absl::StrFormat("\n  time: %.3f s to %.3f s (%.3f s)", first, last,
+                                           last - first));
+  }
+  if (capture->ground_truth().has_value()) {
+    const GroundTruth& truth = *capture->ground_truth();
+    float near = INFINITY, far = -INFINITY;
+    for (float r : truth.first_range_m) {
+      if (std::isfinite(r)) {
+        near = std::min(near, r);
+        far = std::max(far, r);
+      }
+    }
+    absl::StrAppend(&text, absl::StrFormat(
+                               "\n  ground truth: up to %d returns per pixel, first return at "
+                               "%.3f..%.3f m",
+                               truth.max_returns, near, far));
+  } else {
+    absl::StrAppend(&text, "\n  ground truth: none");
+  }
+  absl::StrAppend(&text, "\n  calibration: ",
+                  capture->calibration().has_value() ? "embedded" : "none");
+  return text;
+}
+
+absl::StatusOr<std::string> DescribeCalibration(const std::string& path) {
+  absl::StatusOr<CalibrationTable> table = ReadCalibrationFile(path);
+  if (!table.ok()) return table.status();
+  absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(table->schedule);
+  const int64_t pixels = table->geometry.pixel_count();
+  const int64_t usable = std::count(table->valid.begin(), table->valid.end(), uint8_t{1});
+  std::string text = absl::StrFormat(
+      "%s: calibration (transient-calibration 1)\n  %dx%d px, %s\n  takes averaged: %d\n  "
+      "usable pixels: %d of %d",
+      path, table->geometry.width, table->geometry.height,
+      schedule.ok() ? schedule->Describe() : "unknown schedule", table->takes_averaged, usable,
+      pixels);
+  // The median factor per harmonic: its modulus is the relative gain, its angle the phase
+  // offset the calibration removes.
+  for (int j = 1; j <= table->order; ++j) {
+    std::vector<double> modulus, angle;
+    for (int64_t p = 0; p < pixels; ++p) {
+      if (!table->valid[p]) continue;
+      const std::complex<double> k(table->real[j * pixels + p], table->imag[j * pixels + p]);
+      modulus.push_back(std::abs(k));
+      angle.push_back(std::arg(k));
+    }
+    if (modulus.empty()) continue;
+    auto median = [](std::vector<double>& v) {
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      return v[v.size() / 2];
+    };
+    absl::StrAppend(&text, absl::StrFormat("\n  k_%d: median |k| %.4g, median arg %.4f rad", j,
+                                           median(modulus), median(angle)));
+  }
+  return text;
+}
+
+absl::StatusOr<std::string> DescribeMoments(const std::string& path) {
+  absl::StatusOr<MomentFile> file = MomentFile::Open(path);
+  if (!file.ok()) return file.status();
+  std::string zeroth = "not stated (measured assumed)";
+  if (file->zeroth_hint().has_value()) {
+    zeroth = *file->zeroth_hint() == ZerothMoment::kEstimate ? "estimated" : "measured";
+  }
+  return absl::StrFormat(
+      "%s: moments (transient-moments 1)\n  %d frames of %dx%d px, m = %d, f = %s\n  c_0: %s\n  "
+      "valid mask: %s, flags: %s",
+      path, file->frames(), file->geometry().width, file->geometry().height, file->order(),
+      Frequency(file->base_frequency_hz()), zeroth, file->has_valid_mask() ? "yes" : "no",
+      file->has_flags() ? "yes" : "no");
+}
+
+absl::StatusOr<std::string> DescribeReconstruction(const std::string& path, hid_t file) {
+  std::string text = absl::StrCat(path, ": reconstruction (transient-reconstruction 1)");
+  for (const char* attribute : {"method", "zeroth", "source"}) {
+    absl::StatusOr<std::string> value = h5::ReadStringAttribute(file, attribute, path);
+    if (value.ok()) absl::StrAppend(&text, "\n  ", attribute, ": ", *value);
+  }
+  for (const char* attribute : {"base_frequency_hz", "order", "bins", "bias_epsilon"}) {
+    absl::StatusOr<double> value = h5::ReadNumericAttribute(file, attribute, path);
+    if (value.ok()) absl::StrAppend(&text, "\n  ", attribute, ": ", *value);
+  }
+  for (const char* dataset :
+       {"/range_m", "/c0", "/flags", "/density", "/cumulative", "/pisarenko/phase",
+        "/pisarenko/range_m", "/bounds/lower"}) {
+    if (!h5::LinkExists(file, dataset)) continue;
+    h5::Id id = h5::Dataset(H5Dopen2(file, dataset, H5P_DEFAULT));
+    if (!id.valid()) continue;
+    h5::Id space = h5::Dataspace(H5Dget_space(id.get()));
+    absl::StrAppend(&text, "\n  ", dataset, " ", h5::DimensionsToString(h5::Dimensions(space.get())));
+  }
+  return text;
+}
+
+}  // namespace
+
+absl::StatusOr<std::string> DescribeFile(const std::string& path) {
+  h5::SilenceErrorStack();
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) {
+    return absl::NotFoundError(absl::StrCat(path, ": no such file"));
+  }
+  if (H5Fis_hdf5(path.c_str()) <= 0) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": not an HDF5 file"));
+  }
+  h5::Id file = h5::File(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
+  if (!file.valid()) {
+    // A recording killed while being written keeps SWMR's marks; its reader opens it anyway.
+    absl::StatusOr<std::string> capture = DescribeCapture(path);
+    if (capture.ok()) return capture;
+    return absl::DataLossError(
+        absl::StrCat(path, ": HDF5 cannot open the file (corrupt, truncated or locked)"));
+  }
+  absl::StatusOr<std::string> format = h5::ReadStringAttribute(file.get(), "format", path);
+  if (!format.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": an HDF5 file without a format attribute, not a file of this project"));
+  }
+  const std::string name = format->substr(0, format->find(' '));
+  if (name == kCaptureFormatName) {
+    file = h5::Id();
+    return DescribeCapture(path);
+  }
+  if (name == "transient-calibration") {
+    file = h5::Id();
+    return DescribeCalibration(path);
+  }
+  if (name == kMomentFormatName) {
+    file = h5::Id();
+    return DescribeMoments(path);
+  }
+  if (name == "transient-reconstruction") return DescribeReconstruction(path, file.get());
+  return absl::InvalidArgumentError(absl::StrCat(
+      path, ": format '", *format,
+      "' is none of transient-capture, transient-calibration, transient-moments, "
+      "transient-reconstruction"));
+}
+
+}  // namespace transient::tools
