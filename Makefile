@@ -27,11 +27,17 @@ test-sanitize:
 	cmake --build $(ASAN_DIR) -j $(JOBS)
 	ctest --test-dir $(ASAN_DIR) --output-on-failure -j $(JOBS)
 
-# Until the daemon exists: reconstruct the example moment file and say where the result is.
+# Until the daemon exists: the measurement sequence of the README on the simulated camera
+# (mirrors scene, thesis fig. 8.7), then the reconstruction compared with the scene's truth.
+TRANSIENT = $(BUILD_DIR)/tools/transient/transient
 demo: build
-	mkdir -p out
-	$(BUILD_DIR)/tools/transient/transient reconstruct tests/data/example_moments.h5 out/example_reconstruction.h5
-	@echo "demo: wrote out/example_reconstruction.h5 (open it with h5py, MATLAB h5read or h5dump)"
+	rm -rf out && mkdir -p out
+	$(TRANSIENT) sim mirrors --frames 4 --out out/capture.h5
+	$(TRANSIENT) calibrate --source sim:calibration --takes 20 --out out/calibration.h5
+	$(TRANSIENT) moments out/capture.h5 --calibration out/calibration.h5 --out out/moments.h5
+	$(TRANSIENT) reconstruct out/moments.h5 out/reconstruction.h5 --bins 64
+	/usr/bin/python3 tools/scripts/compare_with_truth.py out/capture.h5 out/reconstruction.h5
+	@echo "demo: wrote out/capture.h5, out/calibration.h5, out/moments.h5 and out/reconstruction.h5 (transient info FILE describes each; h5py, MATLAB h5read and h5dump open them)"
 
 bench: deps
 	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_BENCHMARKS=ON $(CMAKE_FLAGS)

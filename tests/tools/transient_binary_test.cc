@@ -154,5 +154,55 @@ TEST_F(TransientBinary, AllOptionsAreAccepted) {
   EXPECT_THAT(Lines(result.out), ElementsAre(MatchesRegex("1 frame of 4x3 px .* mese: .*")));
 }
 
+
+// The measurement commands: the README's sequence runs, and every bad input gets one error line
+// and exit code 2 with nothing written.
+TEST_F(TransientBinary, MeasurementSequenceRunsAndInfoDescribesEachFile) {
+  const std::string camera = "width=24&height=18";
+  ASSERT_EQ(Run({"sim", "mirrors", "--out", dir_.File("capture.h5"), "--frames", "2", "--set",
+                 "width=24", "--set", "height=18"})
+                .exit_code,
+            0);
+  ASSERT_EQ(Run({"calibrate", "--source", "sim:calibration?pace=fast&" + camera, "--takes", "3",
+                 "--out", dir_.File("calibration.h5")})
+                .exit_code,
+            0);
+  const Result moments = Run({"moments", dir_.File("capture.h5"), "--calibration",
+                              dir_.File("calibration.h5"), "--out", dir_.File("moments.h5")});
+  ASSERT_EQ(moments.exit_code, 0) << moments.err;
+  EXPECT_THAT(moments.out, HasSubstr("2 transient frames"));
+  const Result info = Run({"info", dir_.File("capture.h5")});
+  EXPECT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_THAT(info.out, HasSubstr("transient-capture 1"));
+  EXPECT_THAT(info.out, HasSubstr("28 raw"));
+}
+
+TEST_F(TransientBinary, BadMeasurementInputsGiveOneErrorLineAndExitCodeTwo) {
+  {
+    std::ofstream text(dir_.File("notes.txt"));
+    text << "not HDF5\n";
+  }
+  for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{
+           {"sim", "nowhere", "--out", dir_.File("a.h5")},
+           {"sim", "mirrors", "--out", dir_.File("a.h5"), "--m", "0"},
+           {"sim", "mirrors", "--out", dir_.File("a.h5"), "--set", "colour=blue"},
+           {"sim", "mirrors", "--out", dir_.File("a.h5"), "--frames", "0"},
+           {"record", "--source", "usb:9", "--out", dir_.File("a.h5"), "--frames", "1"},
+           {"record", "--source", "sim:mirrors", "--out", dir_.File("a.h5")},
+           {"record", "--source", "replay:" + dir_.File("missing.h5"), "--out", dir_.File("a.h5"),
+            "--frames", "1"},
+           {"calibrate", "--source", "sim:calibration?m=99", "--out", dir_.File("c.h5")},
+           {"moments", input(), "--out", dir_.File("m.h5"), "--uncalibrated"},
+           {"moments", dir_.File("notes.txt"), "--out", dir_.File("m.h5"), "--uncalibrated"},
+           {"info", dir_.File("notes.txt")},
+           {"info", dir_.File("missing.h5")},
+       }) {
+    const Result result = Run(args);
+    EXPECT_EQ(result.exit_code, 2) << absl::StrJoin(args, " ");
+    EXPECT_THAT(Lines(result.err), ElementsAre(StartsWith("error: "))) << absl::StrJoin(args, " ");
+  }
+  EXPECT_THAT(dir_.Entries(), ::testing::UnorderedElementsAre("in.h5", "notes.txt"));
+}
+
 }  // namespace
 }  // namespace transient::tools
