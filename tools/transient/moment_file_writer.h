@@ -18,8 +18,8 @@ struct MomentFileHeader {
   int order = 0;                  // m
   double base_frequency_hz = 0.0;
   ZerothScheme zeroth = ZerothScheme::kUnmodulatedPair;  // kEstimated: plane 0 holds no c_0
-  std::string source;             // what the moments came from (capture path), an attribute
-  std::string calibration;        // the calibration applied ("" = none), an attribute
+  std::string source = {};        // what the moments came from (capture path), an attribute
+  std::string calibration = {};   // the calibration applied ("" = none), an attribute
   double smoothing_sigma_px = 0;  // Gaussian smoothing applied, an attribute
 };
 
