@@ -1,6 +1,10 @@
 // RAII and attribute helpers over HDF5's C API.
 #include "transient/drivers/h5.h"
 
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <mutex>
 #include <string>
 
@@ -194,6 +198,44 @@ absl::Status WriteDoubleAttribute(hid_t object, const char* name, double value) 
 
 absl::Status WriteInt64Attribute(hid_t object, const char* name, int64_t value) {
   return WriteScalarAttribute(object, name, H5T_STD_I64LE, H5T_NATIVE_INT64, &value);
+}
+
+absl::Status CheckReadableFile(const std::string& path, absl::string_view expected) {
+  std::error_code error;
+  const std::filesystem::file_status status = std::filesystem::status(path, error);
+  if (!std::filesystem::exists(status)) {
+    return absl::NotFoundError(absl::StrCat(path, ": no such file"));
+  }
+  if (std::filesystem::is_directory(status)) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": is a directory, expected ", expected));
+  }
+  std::FILE* stream = std::fopen(path.c_str(), "rb");
+  if (stream == nullptr) {
+    const int reason = errno;
+    const std::string message = absl::StrCat(path, ": cannot be read (", std::strerror(reason), ")");
+    return reason == EACCES ? absl::PermissionDeniedError(message)
+                            : absl::InvalidArgumentError(message);
+  }
+  std::fclose(stream);
+  if (H5Fis_hdf5(path.c_str()) <= 0) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": not an HDF5 file"));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<Id> OpenObject(hid_t file, absl::string_view file_path, const std::string& object,
+                              H5I_type_t kind, absl::string_view description) {
+  const std::string where = absl::StrCat(file_path, ": ", object);
+  if (object != "/" && !LinkExists(file, object)) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ": missing ", description));
+  }
+  Id id = Object(H5Oopen(file, object.c_str(), H5P_DEFAULT));
+  if (!id.valid()) return absl::DataLossError(absl::StrCat(where, ": cannot be opened"));
+  if (H5Iget_type(id.get()) != kind) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, ": expected a ", description, ", found another kind of object"));
+  }
+  return id;
 }
 
 }  // namespace transient::h5

@@ -27,51 +27,7 @@ constexpr char kZerothAttribute[] = "zeroth";
 constexpr char kBaseFrequencyAttribute[] = "base_frequency_hz";
 constexpr char kFormatAttribute[] = "format";
 
-// Existence and readability, checked before HDF5 sees the path so that the common mistakes
-// get their own message rather than HDF5's "unable to open file".
-absl::Status CheckReadableFile(const std::string& path) {
-  std::error_code error;
-  const std::filesystem::file_status status = std::filesystem::status(path, error);
-  if (!std::filesystem::exists(status)) {
-    return absl::NotFoundError(absl::StrCat(path, ": no such file"));
-  }
-  if (std::filesystem::is_directory(status)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path, ": is a directory, expected an HDF5 moment file"));
-  }
-  std::FILE* stream = std::fopen(path.c_str(), "rb");
-  if (stream == nullptr) {
-    const int reason = errno;
-    const std::string message =
-        absl::StrCat(path, ": cannot be read (", std::strerror(reason), ")");
-    return reason == EACCES ? absl::PermissionDeniedError(message)
-                            : absl::InvalidArgumentError(message);
-  }
-  std::fclose(stream);
-  if (H5Fis_hdf5(path.c_str()) <= 0) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": not an HDF5 file"));
-  }
-  return absl::OkStatus();
-}
-
-// Opens the object at `object_path` and checks that it is of kind `kind` (H5I_GROUP or
-// H5I_DATASET); `description` completes "missing ..." and "expected ...".
-absl::StatusOr<h5::Id> OpenObject(hid_t file, const std::string& file_path, const char* object_path,
-                                  H5I_type_t kind, absl::string_view description) {
-  const std::string where = absl::StrCat(file_path, ": ", object_path);
-  if (!h5::LinkExists(file, object_path)) {
-    return absl::InvalidArgumentError(absl::StrCat(where, ": missing ", description));
-  }
-  h5::Id object = h5::Object(H5Oopen(file, object_path, H5P_DEFAULT));
-  if (!object.valid()) {
-    return absl::DataLossError(absl::StrCat(where, ": cannot be opened"));
-  }
-  if (H5Iget_type(object.get()) != kind) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(where, ": expected ", description, ", found another kind of object"));
-  }
-  return object;
-}
+using h5::OpenObject;
 
 // A dataset compressed with a filter this HDF5 library lacks (h5py's lzf, say) opens fine
 // and fails at the first read; say so up front, by name.
@@ -152,7 +108,9 @@ absl::StatusOr<h5::Id> OpenPixelPlanes(hid_t id, const std::string& path, const 
 
 absl::StatusOr<MomentFile> MomentFile::Open(const std::string& path) {
   h5::SilenceErrorStack();
-  if (absl::Status readable = CheckReadableFile(path); !readable.ok()) return readable;
+  if (absl::Status readable = h5::CheckReadableFile(path, "an HDF5 moment file"); !readable.ok()) {
+    return readable;
+  }
 
   MomentFile file;
   file.path_ = path;

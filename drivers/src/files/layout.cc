@@ -14,26 +14,7 @@
 namespace transient::internal {
 
 absl::Status CheckReadableHdf5File(const std::string& path) {
-  std::error_code error;
-  const std::filesystem::file_status status = std::filesystem::status(path, error);
-  if (!std::filesystem::exists(status)) {
-    return absl::NotFoundError(absl::StrCat(path, ": no such file"));
-  }
-  if (std::filesystem::is_directory(status)) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": is a directory, expected an HDF5 file"));
-  }
-  std::FILE* stream = std::fopen(path.c_str(), "rb");
-  if (stream == nullptr) {
-    const int reason = errno;
-    const std::string message = absl::StrCat(path, ": cannot be read (", std::strerror(reason), ")");
-    return reason == EACCES ? absl::PermissionDeniedError(message)
-                            : absl::InvalidArgumentError(message);
-  }
-  std::fclose(stream);
-  if (H5Fis_hdf5(path.c_str()) <= 0) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": not an HDF5 file"));
-  }
-  return absl::OkStatus();
+  return h5::CheckReadableFile(path);
 }
 
 std::string Where(absl::string_view file, absl::string_view object) {
@@ -42,21 +23,7 @@ std::string Where(absl::string_view file, absl::string_view object) {
 
 namespace {
 
-absl::StatusOr<h5::Id> OpenObject(hid_t file, absl::string_view file_path,
-                                  const std::string& object, H5I_type_t kind,
-                                  absl::string_view description) {
-  const std::string where = Where(file_path, object);
-  if (object != "/" && !h5::LinkExists(file, object)) {
-    return absl::InvalidArgumentError(absl::StrCat(where, ": missing ", description));
-  }
-  h5::Id id = h5::Object(H5Oopen(file, object.c_str(), H5P_DEFAULT));
-  if (!id.valid()) return absl::DataLossError(absl::StrCat(where, ": cannot be opened"));
-  if (H5Iget_type(id.get()) != kind) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(where, ": expected a ", description, ", found another kind of object"));
-  }
-  return id;
-}
+using h5::OpenObject;
 
 // A dataset written with a filter this library lacks (h5py's lzf) opens and fails at the
 // first read; say so up front, by name.

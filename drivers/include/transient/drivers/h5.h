@@ -80,6 +80,19 @@ absl::StatusOr<std::string> ReadStringAttribute(hid_t object, const char* name,
 absl::StatusOr<double> ReadNumericAttribute(hid_t object, const char* name,
                                             absl::string_view where);
 
+// Existence and readability of `path`, checked before HDF5 sees it so that the common mistakes
+// get their own message rather than HDF5's "unable to open file": NotFound, PermissionDenied,
+// InvalidArgument ("is a directory, expected <expected>", "not an HDF5 file").
+absl::Status CheckReadableFile(const std::string& path,
+                               absl::string_view expected = "an HDF5 file");
+
+// Opens `object` ("/" or an absolute path) of `file` and checks that it is of `kind` (H5I_GROUP
+// or H5I_DATASET); `description` completes "missing ..." and "expected a ...". Messages start
+// with "<file_path>: <object>". InvalidArgument when missing or of another kind, DataLoss when
+// HDF5 cannot open it.
+absl::StatusOr<Id> OpenObject(hid_t file, absl::string_view file_path, const std::string& object,
+                              H5I_type_t kind, absl::string_view description);
+
 // Scalar attributes as written by the tool: variable-length UTF-8 strings, float64, int64.
 absl::Status WriteStringAttribute(hid_t object, const char* name, absl::string_view value);
 absl::Status WriteDoubleAttribute(hid_t object, const char* name, double value);
