@@ -17,6 +17,7 @@
 #include "tools/transient/moment_file.h"
 #include "tools/transient/moment_file_writer.h"
 #include "tools/transient/temporary_output.h"
+#include "transient/drivers/calibration_capture.h"
 #include "transient/drivers/calibration_file.h"
 #include "transient/drivers/capture_file.h"
 #include "transient/drivers/capture_source.h"
@@ -215,70 +216,27 @@ absl::StatusOr<CalibrateSummary> RunCalibrate(const CalibrateArgs& args,
   CaptureSource& source = **opened;
   const AcquisitionSchedule& schedule = source.schedule();
   const ImageGeometry geometry = source.camera().geometry;
-
-  // The cycles become takes of one long cycle, so that the demodulator's averaging with
-  // outlier rejection (thesis §8.5) treats the whole calibration at once.
-  const int source_takes = schedule.options().takes;
-  ScheduleOptions combined_options = schedule.options();
-  combined_options.takes = args.takes * source_takes;
-  absl::StatusOr<AcquisitionSchedule> combined = AcquisitionSchedule::Create(combined_options);
-  if (!combined.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "--takes = ", args.takes, " with ", source_takes,
-        " takes per frame of the source exceeds the 1024 takes one calibration can average"));
+  absl::StatusOr<CalibrationCapture> measured = CaptureCalibration(
+      source, args.takes,
+      {.on_take = [&](int done, int total) { Progress(hooks, done, total); },
+       .cancel = hooks.cancel});
+  if (absl::IsCancelled(measured.status())) {
+    return absl::CancelledError("interrupted; no calibration written");
   }
-  absl::StatusOr<Demodulator> demodulator = Demodulator::Create(*combined, geometry, {});
-  if (!demodulator.ok()) return demodulator.status();
-  absl::StatusOr<CycleAssembler> assembler = CycleAssembler::Create(schedule, geometry);
-  if (!assembler.ok()) return assembler.status();
-
-  std::vector<RawFrame> frames;
-  frames.reserve(static_cast<size_t>(combined->raw_frames_per_frame()));
-  if (absl::Status status = source.Start(); !status.ok()) return status;
-  int cycles = 0;
-  RawFrame frame;
-  while (cycles < args.takes) {
-    if (Cancelled(hooks)) return absl::CancelledError("interrupted; no calibration written");
-    absl::Status next = source.Next(kFrameTimeout, &frame);
-    if (absl::IsOutOfRange(next)) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          args.source_uri, ": ended after ", cycles, " complete frames; --takes asks for ",
-          args.takes));
-    }
-    if (!next.ok()) return next;
-    absl::StatusOr<bool> complete = assembler->Add(std::move(frame));
-    if (!complete.ok() || !*complete) continue;  // an incomplete cycle is dropped, not used
-    for (RawFrame& f : assembler->TakeCycle()) {
-      f.config.take += cycles * source_takes;
-      f.config.cycle = 0;
-      frames.push_back(std::move(f));
-    }
-    ++cycles;
-    Progress(hooks, cycles, args.takes);
-  }
-  (void)source.Stop();
-
-  MomentImage moments;
-  DemodulationReport report;
-  if (absl::Status status = demodulator->Demodulate(frames, &moments, &report); !status.ok()) {
-    return status;
-  }
-  absl::StatusOr<CalibrationTable> table =
-      EstimateCalibration(moments, schedule.options(), report.frames_used /
-                                                           std::max(1, schedule.exposures_per_take()));
-  if (!table.ok()) return table.status();
-  if (absl::Status status = WriteCalibrationFile(output->temporary_path(), *table); !status.ok()) {
+  if (!measured.ok()) return measured.status();
+  const CalibrationTable& table = measured->table;
+  if (absl::Status status = WriteCalibrationFile(output->temporary_path(), table); !status.ok()) {
     return status;
   }
   if (Cancelled(hooks)) return absl::CancelledError("interrupted; no calibration written");
   if (absl::Status status = output->Commit(); !status.ok()) return status;
 
   CalibrateSummary summary{.output_path = args.output_path,
-                           .takes_averaged = table->takes_averaged,
-                           .frames_rejected = static_cast<int>(report.rejected.size()),
+                           .takes_averaged = table.takes_averaged,
+                           .frames_rejected = measured->frames_rejected,
+                           .usable_pixels = measured->usable_pixels,
                            .pixels = geometry.pixel_count(),
                            .schedule = schedule.Describe()};
-  summary.usable_pixels = std::count(table->valid.begin(), table->valid.end(), uint8_t{1});
   return summary;
 }
 
