@@ -5,7 +5,7 @@ JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 BENCH_ARGS ?=
 
-.PHONY: deps build test test-release test-sanitize demo bench clean
+.PHONY: deps build test test-release test-sanitize demo demo-files bench clean
 
 deps:
 	bash tools/install_deps.sh
@@ -27,17 +27,23 @@ test-sanitize:
 	cmake --build $(ASAN_DIR) -j $(JOBS)
 	ctest --test-dir $(ASAN_DIR) --output-on-failure -j $(JOBS)
 
-# Until the daemon exists: the measurement sequence of the README on the simulated camera
-# (mirrors scene, thesis fig. 8.7), then the reconstruction compared with the scene's truth.
 TRANSIENT = $(BUILD_DIR)/tools/transient/transient
+# The product's main job: transientd on the simulated mirrors scene (thesis fig. 8.7) and
+# `transient client` for a few seconds; out/ gets depth, range, slices, the light sweep as MP4
+# and the client's summary.
 demo: build
-	rm -rf out && mkdir -p out
-	$(TRANSIENT) sim mirrors --frames 4 --out out/capture.h5
-	$(TRANSIENT) calibrate --source sim:calibration --takes 20 --out out/calibration.h5
-	$(TRANSIENT) moments out/capture.h5 --calibration out/calibration.h5 --out out/moments.h5
-	$(TRANSIENT) reconstruct out/moments.h5 out/reconstruction.h5 --bins 64
-	/usr/bin/python3 tools/scripts/compare_with_truth.py out/capture.h5 out/reconstruction.h5
-	@echo "demo: wrote out/capture.h5, out/calibration.h5, out/moments.h5 and out/reconstruction.h5 (transient info FILE describes each; h5py, MATLAB h5read and h5dump open them)"
+	bash tools/scripts/demo.sh $(BUILD_DIR) 5
+
+# The file-based measurement sequence of the README (sim -> calibrate -> moments ->
+# reconstruct), compared with the scene's truth, into out/files/.
+demo-files: build
+	rm -rf out/files && mkdir -p out/files
+	$(TRANSIENT) sim mirrors --frames 4 --out out/files/capture.h5
+	$(TRANSIENT) calibrate --source sim:calibration --takes 20 --out out/files/calibration.h5
+	$(TRANSIENT) moments out/files/capture.h5 --calibration out/files/calibration.h5 --out out/files/moments.h5
+	$(TRANSIENT) reconstruct out/files/moments.h5 out/files/reconstruction.h5 --bins 64
+	/usr/bin/python3 tools/scripts/compare_with_truth.py out/files/capture.h5 out/files/reconstruction.h5
+	@echo "demo-files: wrote out/files/{capture,calibration,moments,reconstruction}.h5 (transient info FILE describes each)"
 
 bench: deps
 	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_BENCHMARKS=ON $(CMAKE_FLAGS)

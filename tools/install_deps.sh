@@ -8,7 +8,9 @@ packages=(
   libhdf5-dev hdf5-tools
   libeigen3-dev libabsl-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3 python3-numpy python3-h5py
+  libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
+  libzstd-dev libpng-dev libtiff-dev ffmpeg
+  python3 python3-numpy python3-h5py python3-grpcio python3-protobuf
 )
 
 sudo_cmd=()

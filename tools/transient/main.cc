@@ -13,10 +13,13 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "transient/drivers/simulator.h"
 #include "tools/transient/bench_command.h"
 #include "tools/transient/capture_commands.h"
+#include "tools/transient/client_command.h"
 #include "tools/transient/exit_status.h"
 #include "tools/transient/progress_bar.h"
 #include "tools/transient/reconstruct_command.h"
@@ -354,6 +357,101 @@ int RunInfoCommand(const std::string& path) {
   return 0;
 }
 
+// The client subcommand's options as typed; turned into ClientArgs after parsing.
+struct ClientCommandLine {
+  transient::tools::ClientArgs args;
+  std::string products = "range,slices";
+  std::string roi;
+  CLI::Option* frames_option = nullptr;
+  CLI::Option* seconds_option = nullptr;
+};
+
+CLI::App* AddClientCommand(CLI::App& app, ClientCommandLine& line) {
+  CLI::App* command = app.add_subcommand(
+      "client",
+      "Subscribe to a running transientd over gRPC, receive frames, and write the products of "
+      "the last frame into a directory with a JSON summary of rate and latency.");
+  command->footer(
+      "Files written into --out DIR (from the last frame received):\n"
+      "  depth.png          depth Z, 16-bit PNG in millimetres, 0 = invalid (REP 118)\n"
+      "  range.tiff         radial range, 32-bit float TIFF in metres, NaN = no return\n"
+      "  range_mm.png       range as 16-bit millimetres, when depth was not asked for\n"
+      "  amplitude.tiff     |c_1|, c0.tiff: c_0, float TIFF in sensor units\n"
+      "  flags.png          8-bit PixelFlag bits\n"
+      "  slices/slice_NNN.png, cumulative/slice_NNN.png: colour-mapped (inferno) density and\n"
+      "                     cumulative per time of flight, one colour scale per series (the\n"
+      "                     99.5th percentile of its finite values), NaN grey\n"
+      "  moment_state/, direct_indirect/: one float TIFF per plane\n"
+      "  summary.json       address, source, camera size, frames, seconds, rate_hz, latency_ms\n"
+      "                     {p50, p90, p99, max} (daemon latency + network), frames_missed, state\n"
+      "                     changes, slice_time_of_flight_ns, colour scales, files\n"
+      "Exit codes: 0 done, 1 daemon unreachable or failed, 2 bad options, 130 interrupted (what\n"
+      "arrived is written first).");
+  transient::tools::ClientArgs& args = line.args;
+  command->add_option("--connect", args.connect, "address of transientd, host:port or unix:PATH")
+      ->capture_default_str();
+  command
+      ->add_option("--products", line.products,
+                   "comma-separated: range, depth, amplitude, c0, flags, moment_state, slices, "
+                   "cumulative, direct_indirect")
+      ->capture_default_str();
+  line.frames_option =
+      command->add_option("--frames", args.frames, "frames with images to receive")
+          ->capture_default_str();
+  line.seconds_option = command->add_option(
+      "--seconds", args.seconds, "receive for this many seconds instead of --frames");
+  command->add_option("--out", args.output_dir, "directory to write into (created if missing)")
+      ->required();
+  command->add_option("--roi", line.roi,
+                      "region of interest X,Y,W,H in sensor pixels (default: whole sensor)");
+  command
+      ->add_option("--bins", args.bins,
+                   "slices uniform over one modulation period, times of flight n*T/N (1..1024)")
+      ->capture_default_str();
+  command
+      ->add_option("--encoding", args.encoding,
+                   "image encoding on the wire: float32, float16 or mm (16-bit millimetres, "
+                   "range and depth only)")
+      ->capture_default_str();
+  command->add_flag("--zstd", args.zstd, "ask for zstd-compressed images");
+  command
+      ->add_option("--max-rate", args.max_rate_hz,
+                   "at most this many frames per second, in Hz; 0 = every frame")
+      ->capture_default_str();
+  command
+      ->add_option("--connect-timeout", args.connect_timeout_s,
+                   "seconds to wait for the daemon to accept the connection")
+      ->capture_default_str();
+  return command;
+}
+
+int RunClientCommand(ClientCommandLine& line) {
+  transient::tools::ClientArgs& args = line.args;
+  args.products = absl::StrSplit(line.products, ',', absl::SkipWhitespace());
+  for (std::string& product : args.products) {
+    product = std::string(absl::StripAsciiWhitespace(product));
+  }
+  if (!line.roi.empty()) {
+    absl::StatusOr<transient::tools::ClientRoi> roi = transient::tools::ParseRoi(line.roi);
+    if (!roi.ok()) {
+      std::cerr << ErrorLine(roi.status()) << "\n";
+      return kExitBadInput;
+    }
+    args.roi = *roi;
+  }
+  // --seconds alone replaces the default --frames.
+  if (line.seconds_option->count() > 0 && line.frames_option->count() == 0) args.frames = 0;
+  if (absl::Status status = args.Validate(); !status.ok()) {
+    std::cerr << ErrorLine(status) << "\n";
+    return kExitBadInput;
+  }
+  return RunWithProgress<transient::tools::ClientSummary>(
+      [&](const transient::tools::CommandHooks& hooks) {
+        return transient::tools::RunClient(args, hooks);
+      },
+      transient::tools::FormatClientSummary);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -375,6 +473,8 @@ int main(int argc, char** argv) {
   CLI::App* moments = AddMomentsCommand(app, moments_args);
   std::string info_path;
   CLI::App* info = AddInfoCommand(app, info_path);
+  ClientCommandLine client_line;
+  CLI::App* client = AddClientCommand(app, client_line);
 
   try {
     app.parse(argc, argv);
@@ -410,5 +510,6 @@ int main(int argc, char** argv) {
         transient::tools::FormatMomentsSummary);
   }
   if (info->parsed()) return RunInfoCommand(info_path);
+  if (client->parsed()) return RunClientCommand(client_line);
   return kExitBadInput;  // unreachable: exactly one subcommand is required
 }

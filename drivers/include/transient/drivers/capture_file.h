@@ -76,7 +76,7 @@ struct CaptureWriterOptions {
   // The longest a written frame waits before it is made durable (the flush happens in the
   // Append that finds the interval elapsed; call Flush() when frames stop coming).
   absl::Duration flush_interval = absl::Seconds(1);
-  std::string source_uri;  // stored as the root attribute source_uri
+  std::string source_uri = {};  // stored as the root attribute source_uri
   // Saturation level of every frame (RawFrame::saturation_level); frames must agree with it.
   float saturation_level = std::numeric_limits<float>::infinity();
 

@@ -1,0 +1,63 @@
+// Images on the wire: a full-sensor plane of a product, cropped to the subscriber's region of
+// interest, in the encoding it asked for (32FC1 float, 16FC1 half float, 16UC1 millimetres),
+// optionally zstd-compressed; and the inverse for clients. Layout: row-major, little endian,
+// step = width * bytes per pixel (DESIGN.md, "Units and conventions"; ROS REP 118 for depth).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "transient/reconstruct/image.h"
+#include "transient/v1/transient.pb.h"
+
+namespace transient::service {
+
+// A region of interest resolved against a sensor: non-empty and inside it.
+struct PixelRect {
+  int x = 0;
+  int y = 0;
+  int width = 0;
+  int height = 0;
+
+  int64_t pixel_count() const { return int64_t{width} * height; }
+  friend bool operator==(const PixelRect&, const PixelRect&) = default;
+};
+
+// width = height = 0 is the whole sensor. InvalidArgument naming "roi" and the sensor size
+// when the rectangle is empty in one dimension only or reaches outside the sensor.
+absl::StatusOr<PixelRect> ResolveRoi(const v1::Roi& roi, ImageGeometry sensor);
+
+// Whether `product` can be sent in `encoding`: UINT16_MM only for RANGE and DEPTH (lengths);
+// FLAGS is always 8UC1 and accepts any encoding request (it is ignored). InvalidArgument
+// naming the product and the encoding otherwise.
+absl::Status CheckEncoding(v1::Product product, v1::Encoding encoding);
+
+// The ROS encoding string of a float plane sent as `encoding`: 32FC1, 16FC1 or 16UC1.
+const char* EncodingName(v1::Encoding encoding);
+
+// Crops `plane` (geometry `sensor`, row-major, one float per pixel in the product's SI unit)
+// to `rect` and fills out->width/height/encoding/step/data/compression. Float encodings keep
+// NaN; UINT16_MM writes round(1000 * value) with 0 for NaN, <= 0 and values above 65.535 m
+// (REP 118: 0 is invalid). The caller sets name, product and unit. `plane` must hold
+// sensor.pixel_count() values and `rect` lie inside `sensor` (asserted).
+absl::Status EncodeFloatPlane(std::span<const float> plane, ImageGeometry sensor,
+                              const PixelRect& rect, v1::Encoding encoding,
+                              v1::Compression compression, v1::Image* out);
+
+// The same for a byte plane (FLAGS): 8UC1.
+absl::Status EncodeBytePlane(std::span<const uint8_t> plane, ImageGeometry sensor,
+                             const PixelRect& rect, v1::Compression compression, v1::Image* out);
+
+// Client side: the image's values as floats in the product's SI unit (16UC1 millimetres become
+// metres, 0 becomes NaN; 8UC1 bytes become 0..255). DataLoss naming the image when the data
+// does not fit width, height, step and encoding, when zstd fails, or for an unknown encoding.
+absl::StatusOr<std::vector<float>> DecodeImage(const v1::Image& image);
+
+// IEEE 754 binary16 conversions, round to nearest even; NaN and infinities are kept.
+uint16_t FloatToHalf(float value);
+float HalfToFloat(uint16_t bits);
+
+}  // namespace transient::service

@@ -1,0 +1,203 @@
+// The daemon's pipeline (DESIGN.md, "The data path" and "Threads"): a source thread reads raw
+// frames, records them when asked and assembles capture cycles; a reconstruction thread
+// demodulates, calibrates, smooths, solves each pixel once per frame and computes the products
+// that any subscriber asked for, once, into an immutable frame shared by all of them. Every
+// subscriber has its own bounded queue: a slow one loses its oldest frames and is told how
+// many; it never stalls the pipeline or the others.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
+#include "absl/time/time.h"
+#include "transient/drivers/capture_file.h"
+#include "transient/drivers/capture_source.h"
+#include "transient/reconstruct/calibration.h"
+#include "transient/reconstruct/reconstructor.h"
+#include "transient/service/products.h"
+
+namespace transient::service {
+
+enum class SourceState { kStreaming, kReconnecting, kEnded };
+const char* SourceStateName(SourceState state);
+
+// Reconstruction parameters that SetConfig may change while frames flow.
+struct ReconstructionConfig {
+  RangeMethod range_method = RangeMethod::kMese;
+  double bias_epsilon = 4e-3;        // thesis §8.5
+  double threshold = 0.1;            // relative, (0, 1)
+  double smoothing_sigma_px = 0.6;   // thesis §8.5; 0 = none
+  int takes = 1;                     // cycles of the schedule averaged per frame (sim sources)
+  bool video = true;                 // fill outlier captures from the previous frame
+
+  // InvalidArgument naming the field, its value and the rule.
+  absl::Status Validate() const;
+};
+
+// Opens a source by URI; tests substitute one that fails on purpose.
+using SourceOpener =
+    std::function<absl::StatusOr<std::unique_ptr<CaptureSource>>(const std::string& uri)>;
+
+struct PipelineOptions {
+  std::string source_uri = "sim:mirrors";
+  // Calibration: a table (from --calibration or measured at start), or none.
+  std::optional<CalibrationTable> calibration = std::nullopt;
+  std::string calibration_origin = "none";  // for GetInfo: a path, "measured at start", "none"
+  ReconstructionConfig config = {};
+  SourceOpener open_source = nullptr;  // nullptr = transient::OpenSource
+  int cycle_queue_frames = 2;          // complete cycles waiting for reconstruction
+  absl::Duration reopen_backoff_min = absl::Milliseconds(50);
+  absl::Duration reopen_backoff_max = absl::Seconds(2);
+  // Log lines (stats every few seconds, state changes, errors); nullptr = none.
+  std::function<void(const std::string&)> log = nullptr;
+  absl::Duration stats_log_interval = absl::Seconds(10);
+};
+
+// One published transient frame: immutable once shared.
+struct PublishedFrame {
+  uint64_t sequence = 0;
+  double capture_time_s = 0.0;  // source timestamp of the cycle's first raw frame
+  absl::Time arrival;           // when the cycle's last raw frame came from the source
+  absl::Time publish;
+  SourceState state = SourceState::kStreaming;
+  bool announcement = false;    // a state change without images
+  std::shared_ptr<const FrameProducts> products;  // null for an announcement
+};
+
+// What a subscriber asked the pipeline to compute (encoding and ROI are its own business).
+struct ProductRequest {
+  ProductSet products;
+  std::vector<double> slice_phases;  // radians, for SLICES and CUMULATIVE
+};
+
+class Subscription {
+ public:
+  Subscription(uint64_t id, std::string peer, ProductRequest request, int queue_frames);
+
+  // The next frame, waiting at most `timeout`; nullptr on timeout or when closed. `missed` is
+  // the number of frames dropped from this queue since the previous call.
+  std::shared_ptr<const PublishedFrame> Next(absl::Duration timeout, uint64_t* missed);
+  bool closed() const;
+  const ProductRequest& request() const { return request_; }
+  uint64_t id() const { return id_; }
+  const std::string& peer() const { return peer_; }
+  uint64_t frames_delivered() const;
+  uint64_t frames_missed() const;
+
+ private:
+  friend class Pipeline;
+  void Push(std::shared_ptr<const PublishedFrame> frame);
+  void Close();
+
+  const uint64_t id_;
+  const std::string peer_;
+  const ProductRequest request_;
+  const size_t capacity_;
+  mutable absl::Mutex mu_;
+  std::deque<std::shared_ptr<const PublishedFrame>> queue_ ABSL_GUARDED_BY(mu_);
+  uint64_t missed_since_last_ ABSL_GUARDED_BY(mu_) = 0;
+  uint64_t missed_total_ ABSL_GUARDED_BY(mu_) = 0;
+  uint64_t delivered_ ABSL_GUARDED_BY(mu_) = 0;
+  bool closed_ ABSL_GUARDED_BY(mu_) = false;
+};
+
+struct SubscriberSnapshot {
+  uint64_t id = 0;
+  std::string peer;
+  uint64_t frames_sent = 0, frames_missed = 0;
+  ProductSet products;
+};
+
+struct RecordingStatus {
+  std::string path;
+  bool active = false;
+  uint64_t raw_frames = 0, flushed_frames = 0;
+  std::string error;  // why the last recording stopped by itself
+};
+
+struct PipelineStats {
+  uint64_t raw_frames_in = 0, raw_frames_dropped = 0, raw_frames_rejected = 0;
+  uint64_t cycles_assembled = 0, cycles_dropped = 0, cycles_refused = 0;
+  uint64_t frames_reconstructed = 0, frames_published = 0, source_reopens = 0;
+  SourceState state = SourceState::kStreaming;
+  double latency_p50_ms = 0, latency_p90_ms = 0, latency_p99_ms = 0, latency_max_ms = 0;
+  double reconstruct_ms_mean = 0;
+  double frames_per_second = 0;
+  std::vector<SubscriberSnapshot> subscribers;
+  RecordingStatus recording;
+};
+
+struct CalibrationOutcome {
+  CalibrationTable table;
+  int frames_rejected = 0;
+  int64_t usable_pixels = 0;
+};
+
+class Pipeline {
+ public:
+  // Opens the source (its errors are returned: a bad URI is refused at start) and checks the
+  // calibration against it. Threads start with Start().
+  [[nodiscard]] static absl::StatusOr<std::unique_ptr<Pipeline>> Create(PipelineOptions options);
+  ~Pipeline();  // Stop()
+
+  void Start();
+  // Ends the threads, closes every subscription and the recording (its file stays readable).
+  // Idempotent.
+  void Stop();
+
+  // Source description, fixed at Create (a reopened source must keep its geometry).
+  const CameraInfo& camera() const;
+  std::string source_uri() const;  // changes when SetConfig changes a simulator's takes
+  AcquisitionSchedule schedule() const;
+  std::string calibration_origin() const;
+  SourceState state() const;
+
+  // Registers a subscriber; it receives every frame published from now on.
+  std::shared_ptr<Subscription> Subscribe(std::string peer, ProductRequest request,
+                                          int queue_frames);
+  void Unsubscribe(const std::shared_ptr<Subscription>& subscription);
+
+  // The latest reconstructed frame (with its solved state), or nullptr before the first.
+  std::shared_ptr<const FrameProducts> Latest() const;
+
+  ReconstructionConfig config() const;
+  // Validates and applies every field at once, or nothing (InvalidArgument / FailedPrecondition
+  // naming the field).
+  absl::Status SetConfig(const ReconstructionConfig& config);
+
+  // Measures a calibration from `source_uri` ("" = the calibration scene of a simulated
+  // camera), reporting progress; applies it unless keep_current. Runs on the caller's thread.
+  absl::StatusOr<CalibrationOutcome> Calibrate(const std::string& source_uri, int takes,
+                                               const std::string& output_path, bool keep_current,
+                                               const std::function<void(int, int)>& on_take,
+                                               const std::atomic<bool>* cancel);
+
+  absl::StatusOr<RecordingStatus> StartRecording(const std::string& path, uint64_t max_frames,
+                                                 int deflate_level);
+  absl::StatusOr<RecordingStatus> StopRecording();
+
+  PipelineStats Stats() const;
+
+ private:
+  explicit Pipeline(PipelineOptions options);
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The calibration counterpart of a simulator URI: the `calibration` scene with the same camera
+// keys, paced as fast as possible. InvalidArgument for a source that is not a simulator.
+absl::StatusOr<std::string> CalibrationSourceFor(const std::string& source_uri);
+
+}  // namespace transient::service

@@ -1,0 +1,614 @@
+#include "transient/service/server.h"
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "transient/reconstruct/kernels.h"
+#include "transient/service/grpc_status.h"
+#include "transient/service/image_encoding.h"
+#include "transient/v1/transient.grpc.pb.h"
+
+namespace transient::service {
+namespace {
+
+constexpr double kSpeedOfLight = 299792458.0;
+constexpr int kDefaultSlices = 64;
+constexpr int kDefaultQueueFrames = 4;
+constexpr int kMaxQueueFrames = 64;
+constexpr int kDefaultPixelBins = 256;
+constexpr int kMaxPixelBins = 65536;
+constexpr absl::Duration kPollInterval = absl::Milliseconds(100);
+
+v1::SourceState ToProto(SourceState state) {
+  switch (state) {
+    case SourceState::kStreaming: return v1::STREAMING;
+    case SourceState::kReconnecting: return v1::RECONNECTING;
+    case SourceState::kEnded: return v1::ENDED;
+  }
+  return v1::SOURCE_STATE_UNSPECIFIED;
+}
+
+google::protobuf::Timestamp ToTimestamp(absl::Time t) {
+  google::protobuf::Timestamp out;
+  const int64_t nanos = absl::ToUnixNanos(t);
+  out.set_seconds(nanos / 1000000000);
+  out.set_nanos(static_cast<int32_t>(nanos % 1000000000));
+  return out;
+}
+
+std::string ValidProductNames() {
+  std::vector<std::string> names;
+  for (int p = v1::Product_MIN + 1; p <= v1::Product_MAX; ++p) {
+    if (v1::Product_IsValid(p)) names.push_back(v1::Product_Name(static_cast<v1::Product>(p)));
+  }
+  return absl::StrJoin(names, ", ");
+}
+
+// A subscriber's request, checked and resolved against the sensor.
+struct StreamPlan {
+  ProductRequest request;
+  std::vector<v1::Product> products;  // in the order asked, without repeats
+  PixelRect rect;
+  v1::Encoding encoding = v1::FLOAT32;
+  v1::Compression compression = v1::COMPRESSION_NONE;
+  absl::Duration min_interval = absl::ZeroDuration();
+  int queue_frames = kDefaultQueueFrames;
+};
+
+absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline& pipeline) {
+  StreamPlan plan;
+  if (r.products_size() == 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("products: expected at least one of ", ValidProductNames()));
+  }
+  for (int p : r.products()) {
+    if (!v1::Product_IsValid(p) || p == v1::PRODUCT_UNSPECIFIED) {
+      return absl::InvalidArgumentError(absl::StrCat("products: unknown product ", p,
+                                                     "; expected ", ValidProductNames()));
+    }
+    const auto product = static_cast<v1::Product>(p);
+    if (!plan.request.products.Has(product)) plan.products.push_back(product);
+    plan.request.products.Add(product);
+  }
+  const ImageGeometry sensor = pipeline.camera().geometry;
+  absl::StatusOr<PixelRect> rect = ResolveRoi(r.roi(), sensor);
+  if (!rect.ok()) return rect.status();
+  plan.rect = *rect;
+  if (!v1::Encoding_IsValid(r.encoding())) {
+    return absl::InvalidArgumentError(absl::StrCat("encoding: unknown encoding ", r.encoding()));
+  }
+  plan.encoding = r.encoding() == v1::ENCODING_UNSPECIFIED ? v1::FLOAT32 : r.encoding();
+  for (v1::Product product : plan.products) {
+    if (absl::Status status = CheckEncoding(product, plan.encoding); !status.ok()) return status;
+  }
+  if (!v1::Compression_IsValid(r.compression())) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("compression: unknown compression ", r.compression()));
+  }
+  plan.compression = r.compression();
+  if (!std::isfinite(r.max_rate_hz()) || r.max_rate_hz() < 0.0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "max_rate_hz = ", r.max_rate_hz(), ": expected a finite rate >= 0 (0 = every frame)"));
+  }
+  if (r.max_rate_hz() > 0.0) plan.min_interval = absl::Seconds(1.0 / r.max_rate_hz());
+  if (r.queue_frames() > static_cast<uint32_t>(kMaxQueueFrames)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("queue_frames = ", r.queue_frames(), ": expected 0..", kMaxQueueFrames));
+  }
+  if (r.queue_frames() > 0) plan.queue_frames = static_cast<int>(r.queue_frames());
+  if (plan.request.products.Has(v1::SLICES) || plan.request.products.Has(v1::CUMULATIVE)) {
+    v1::SliceSpec spec = r.slices();
+    if (!r.has_slices()) spec.set_bins(kDefaultSlices);
+    absl::StatusOr<std::vector<double>> phases =
+        ResolveSlicePhases(spec, pipeline.schedule().options().base_frequency_hz, sensor);
+    if (!phases.ok()) return phases.status();
+    plan.request.slice_phases = *std::move(phases);
+  }
+  return plan;
+}
+
+// Adds one float plane as an image; false when the frame lacks it (asked for after the frame's
+// products were chosen).
+absl::StatusOr<bool> AddFloat(const StreamPlan& plan, const FrameProducts& products,
+                              std::span<const float> plane, v1::Product product, std::string name,
+                              const char* unit, v1::Frame* frame, double time_ns = 0.0) {
+  if (plane.size() != static_cast<size_t>(products.geometry.pixel_count())) return false;
+  v1::Image* image = frame->add_images();
+  if (absl::Status status = EncodeFloatPlane(plane, products.geometry, plan.rect, plan.encoding,
+                                             plan.compression, image);
+      !status.ok()) {
+    return status;
+  }
+  image->set_name(std::move(name));
+  image->set_product(product);
+  image->set_unit(plan.encoding == v1::UINT16_MM ? "mm" : unit);
+  if (time_ns != 0.0 || product == v1::SLICES || product == v1::CUMULATIVE) {
+    image->set_time_of_flight_ns(time_ns);
+  }
+  return true;
+}
+
+// Fills `frame` with the planned products of `products`. false when one is missing.
+absl::StatusOr<bool> EncodeProducts(const StreamPlan& plan, const FrameProducts& products,
+                                    v1::Frame* frame) {
+  const size_t pixels = static_cast<size_t>(products.geometry.pixel_count());
+  for (v1::Product product : plan.products) {
+    absl::StatusOr<bool> added = true;
+    switch (product) {
+      case v1::RANGE:
+        added = AddFloat(plan, products, products.range_m, product, "range", "m", frame);
+        break;
+      case v1::DEPTH:
+        added = AddFloat(plan, products, products.depth_m, product, "depth", "m", frame);
+        break;
+      case v1::AMPLITUDE:
+        added = AddFloat(plan, products, products.amplitude, product, "amplitude", "sensor",
+                         frame);
+        break;
+      case v1::C0:
+        added = AddFloat(plan, products, products.c0, product, "c0", "sensor", frame);
+        break;
+      case v1::FLAGS: {
+        v1::Image* image = frame->add_images();
+        if (absl::Status status = EncodeBytePlane(products.flags, products.geometry, plan.rect,
+                                                  plan.compression, image);
+            !status.ok()) {
+          return status;
+        }
+        image->set_name("flags");
+        image->set_product(product);
+        image->set_unit("bits");
+        break;
+      }
+      case v1::MOMENT_STATE: {
+        const SolvedImage& s = *products.solved;
+        std::vector<float> plane(pixels);
+        auto add_plane = [&](const std::vector<double>& source, int j,
+                             const char* name) -> absl::StatusOr<bool> {
+          for (size_t p = 0; p < pixels; ++p) {
+            plane[p] = static_cast<float>(source[j * pixels + p]);
+          }
+          return AddFloat(plan, products, plane, product, absl::StrCat(name, "/", j),
+                          name[0] == 'c' ? "sensor" : "1/sensor", frame);
+        };
+        for (int j = 0; j <= s.order && added.ok(); ++j) {
+          added = add_plane(s.c_real, j, "c_real");
+          if (added.ok() && j > 0) added = add_plane(s.c_imag, j, "c_imag");
+          if (added.ok()) added = add_plane(s.q_real, j, "q_real");
+          if (added.ok()) added = add_plane(s.q_imag, j, "q_imag");
+        }
+        break;
+      }
+      case v1::SLICES:
+      case v1::CUMULATIVE: {
+        auto it = products.slices.find(plan.request.slice_phases);
+        if (it == products.slices.end()) return false;
+        const std::vector<float>& planes =
+            product == v1::SLICES ? it->second.density : it->second.cumulative;
+        const std::vector<double>& phases = plan.request.slice_phases;
+        if (planes.size() != phases.size() * pixels) return false;
+        for (size_t n = 0; n < phases.size() && added.ok() && *added; ++n) {
+          added = AddFloat(plan, products,
+                           std::span<const float>(planes).subspan(n * pixels, pixels), product,
+                           absl::StrCat(product == v1::SLICES ? "slices/" : "cumulative/", n),
+                           product == v1::SLICES ? "sensor/rad" : "sensor", frame,
+                           PhaseToTimeOfFlightNs(phases[n], products.base_frequency_hz));
+        }
+        break;
+      }
+      case v1::DIRECT_INDIRECT:
+        added = AddFloat(plan, products, products.direct, product, "direct", "sensor", frame);
+        if (added.ok() && *added) {
+          added =
+              AddFloat(plan, products, products.indirect, product, "indirect", "sensor", frame);
+        }
+        break;
+      default:
+        return absl::InternalError(absl::StrCat("unplanned product ", product));
+    }
+    if (!added.ok()) return added.status();
+    if (!*added) return false;
+  }
+  return true;
+}
+
+absl::StatusOr<ReconstructionConfig> Merge(const ReconstructionConfig& current,
+                                           const v1::Config& update) {
+  ReconstructionConfig c = current;
+  if (update.has_range_method()) {
+    switch (update.range_method()) {
+      case v1::MESE: c.range_method = RangeMethod::kMese; break;
+      case v1::PISARENKO: c.range_method = RangeMethod::kPisarenko; break;
+      default:
+        return absl::InvalidArgumentError(absl::StrCat(
+            "range_method = ", update.range_method(), ": expected MESE or PISARENKO"));
+    }
+  }
+  if (update.has_bias_epsilon()) c.bias_epsilon = update.bias_epsilon();
+  if (update.has_threshold()) c.threshold = update.threshold();
+  if (update.has_smoothing_sigma_px()) c.smoothing_sigma_px = update.smoothing_sigma_px();
+  if (update.has_takes()) {
+    if (update.takes() > 1024) {
+      return absl::InvalidArgumentError(absl::StrCat("takes = ", update.takes(), ": expected 1..64"));
+    }
+    c.takes = static_cast<int>(update.takes());
+  }
+  if (update.has_video()) c.video = update.video();
+  if (absl::Status status = c.Validate(); !status.ok()) return status;
+  return c;
+}
+
+v1::Config ToProto(const ReconstructionConfig& c) {
+  v1::Config out;
+  out.set_range_method(c.range_method == RangeMethod::kMese ? v1::MESE : v1::PISARENKO);
+  out.set_bias_epsilon(c.bias_epsilon);
+  out.set_threshold(c.threshold);
+  out.set_smoothing_sigma_px(c.smoothing_sigma_px);
+  out.set_takes(static_cast<uint32_t>(c.takes));
+  out.set_video(c.video);
+  return out;
+}
+
+void ToProto(const RecordingStatus& r, v1::Recording* out) {
+  out->set_path(r.path);
+  out->set_active(r.active);
+  out->set_raw_frames(r.raw_frames);
+  out->set_flushed_frames(r.flushed_frames);
+  out->set_error(r.error);
+}
+
+// One pixel of the solved state as a 1x1 image, for the image-level kernels.
+SolvedImage SinglePixel(const SolvedImage& s, int64_t p) {
+  SolvedImage one;
+  one.geometry = ImageGeometry{1, 1};
+  one.order = s.order;
+  const int64_t pixels = s.geometry.pixel_count();
+  for (int j = 0; j <= s.order; ++j) {
+    one.c_real.push_back(s.c_real[j * pixels + p]);
+    one.c_imag.push_back(s.c_imag[j * pixels + p]);
+    one.q_real.push_back(s.q_real[j * pixels + p]);
+    one.q_imag.push_back(s.q_imag[j * pixels + p]);
+  }
+  one.flags = {s.flags[p]};
+  return one;
+}
+
+}  // namespace
+
+class TransientServer::Service final : public v1::Transient::Service {
+ public:
+  Service(Pipeline* pipeline, std::string version)
+      : pipeline_(pipeline), version_(std::move(version)) {}
+
+  grpc::Status GetInfo(grpc::ServerContext*, const v1::GetInfoRequest*, v1::Info* info) override {
+    const CameraInfo& camera = pipeline_->camera();
+    v1::CameraInfo* c = info->mutable_camera();
+    c->set_width(camera.geometry.width);
+    c->set_height(camera.geometry.height);
+    c->set_fx(camera.fx);
+    c->set_fy(camera.fy);
+    c->set_cx(camera.cx);
+    c->set_cy(camera.cy);
+    for (double d : camera.distortion) c->add_distortion(d);
+    c->set_model(camera.model);
+    info->set_source_uri(pipeline_->source_uri());
+    const AcquisitionSchedule schedule = pipeline_->schedule();
+    const ScheduleOptions& o = schedule.options();
+    v1::Schedule* s = info->mutable_schedule();
+    s->set_base_frequency_hz(o.base_frequency_hz);
+    s->set_order(static_cast<uint32_t>(o.order));
+    s->set_sampling(std::string(SamplingSchemeName(o.sampling)));
+    s->set_zeroth(std::string(ZerothSchemeName(o.zeroth)));
+    s->set_takes(static_cast<uint32_t>(o.takes));
+    s->set_raw_frames_per_frame(static_cast<uint32_t>(schedule.raw_frames_per_frame()));
+    s->set_description(schedule.Describe());
+    info->set_calibration(pipeline_->calibration_origin());
+    for (int p = v1::Product_MIN + 1; p <= v1::Product_MAX; ++p) {
+      if (v1::Product_IsValid(p)) info->add_products(static_cast<v1::Product>(p));
+    }
+    info->set_version(version_);
+    info->set_state(ToProto(pipeline_->state()));
+    info->set_unambiguous_range_m(kSpeedOfLight / (2.0 * o.base_frequency_hz));
+    return grpc::Status::OK;
+  }
+
+  grpc::Status StreamFrames(grpc::ServerContext* context, const v1::StreamRequest* request,
+                            grpc::ServerWriter<v1::Frame>* writer) override {
+    absl::StatusOr<StreamPlan> plan = PlanStream(*request, *pipeline_);
+    if (!plan.ok()) return ToGrpcStatus(plan.status());
+    if (pipeline_->state() == SourceState::kEnded) {
+      return ToGrpcStatus(absl::OutOfRangeError(
+          absl::StrCat("the source ", pipeline_->source_uri(), " has ended; no more frames")));
+    }
+    std::shared_ptr<Subscription> subscription =
+        pipeline_->Subscribe(context->peer(), plan->request, plan->queue_frames);
+    absl::Status end = RunStream(context, *plan, *subscription, writer);
+    pipeline_->Unsubscribe(subscription);
+    return ToGrpcStatus(end);
+  }
+
+  grpc::Status GetPixel(grpc::ServerContext*, const v1::GetPixelRequest* request,
+                        v1::Pixel* out) override {
+    return ToGrpcStatus(Pixel(*request, out));
+  }
+
+  grpc::Status GetConfig(grpc::ServerContext*, const v1::GetConfigRequest*,
+                         v1::Config* out) override {
+    *out = ToProto(pipeline_->config());
+    return grpc::Status::OK;
+  }
+
+  grpc::Status SetConfig(grpc::ServerContext*, const v1::Config* update,
+                         v1::Config* out) override {
+    absl::StatusOr<ReconstructionConfig> merged = Merge(pipeline_->config(), *update);
+    if (!merged.ok()) return ToGrpcStatus(merged.status());
+    if (absl::Status status = pipeline_->SetConfig(*merged); !status.ok()) {
+      return ToGrpcStatus(status);
+    }
+    *out = ToProto(pipeline_->config());
+    return grpc::Status::OK;
+  }
+
+  grpc::Status Calibrate(grpc::ServerContext* context, const v1::CalibrateRequest* request,
+                         grpc::ServerWriter<v1::CalibrateProgress>* writer) override {
+    const int takes = request->takes() == 0 ? 20 : static_cast<int>(std::min(request->takes(), 1024u));
+    std::atomic<bool> cancel{false};
+    auto on_take = [&](int done, int total) {
+      v1::CalibrateProgress progress;
+      progress.set_done(static_cast<uint32_t>(done));
+      progress.set_total(static_cast<uint32_t>(total));
+      if (context->IsCancelled() || !writer->Write(progress)) cancel = true;
+    };
+    absl::StatusOr<CalibrationOutcome> outcome =
+        pipeline_->Calibrate(request->source_uri(), takes, request->output_path(),
+                             request->keep_current(), on_take, &cancel);
+    if (!outcome.ok()) return ToGrpcStatus(outcome.status());
+    v1::CalibrateProgress last;
+    last.set_done(static_cast<uint32_t>(takes));
+    last.set_total(static_cast<uint32_t>(takes));
+    v1::CalibrateResult* result = last.mutable_result();
+    result->set_takes_averaged(static_cast<uint32_t>(outcome->table.takes_averaged));
+    result->set_frames_rejected(static_cast<uint32_t>(outcome->frames_rejected));
+    result->set_usable_pixels(static_cast<uint64_t>(outcome->usable_pixels));
+    result->set_pixels(static_cast<uint64_t>(outcome->table.geometry.pixel_count()));
+    result->set_output_path(request->output_path());
+    result->set_applied(!request->keep_current());
+    writer->Write(last);
+    return grpc::Status::OK;
+  }
+
+  grpc::Status StartRecording(grpc::ServerContext*, const v1::StartRecordingRequest* request,
+                              v1::Recording* out) override {
+    const int deflate =
+        request->deflate_level() == 0 ? 1 : static_cast<int>(std::min(request->deflate_level(), 100u));
+    absl::StatusOr<RecordingStatus> status =
+        pipeline_->StartRecording(request->path(), request->max_frames(), deflate);
+    if (!status.ok()) return ToGrpcStatus(status.status());
+    ToProto(*status, out);
+    return grpc::Status::OK;
+  }
+
+  grpc::Status StopRecording(grpc::ServerContext*, const v1::StopRecordingRequest*,
+                             v1::Recording* out) override {
+    absl::StatusOr<RecordingStatus> status = pipeline_->StopRecording();
+    if (!status.ok()) return ToGrpcStatus(status.status());
+    ToProto(*status, out);
+    return grpc::Status::OK;
+  }
+
+  grpc::Status GetStats(grpc::ServerContext*, const v1::GetStatsRequest*,
+                        v1::Stats* out) override {
+    const PipelineStats s = pipeline_->Stats();
+    out->set_raw_frames_in(s.raw_frames_in);
+    out->set_raw_frames_dropped(s.raw_frames_dropped);
+    out->set_raw_frames_rejected(s.raw_frames_rejected);
+    out->set_cycles_assembled(s.cycles_assembled);
+    out->set_cycles_dropped(s.cycles_dropped);
+    out->set_cycles_refused(s.cycles_refused);
+    out->set_frames_reconstructed(s.frames_reconstructed);
+    out->set_frames_published(s.frames_published);
+    out->set_source_reopens(s.source_reopens);
+    out->set_state(ToProto(s.state));
+    v1::LatencyStats* latency = out->mutable_latency();
+    latency->set_p50_ms(s.latency_p50_ms);
+    latency->set_p90_ms(s.latency_p90_ms);
+    latency->set_p99_ms(s.latency_p99_ms);
+    latency->set_max_ms(s.latency_max_ms);
+    out->set_reconstruct_ms_mean(s.reconstruct_ms_mean);
+    out->set_frames_per_second(s.frames_per_second);
+    for (const SubscriberSnapshot& sub : s.subscribers) {
+      v1::SubscriberStats* o = out->add_subscribers();
+      o->set_id(sub.id);
+      o->set_peer(sub.peer);
+      o->set_frames_sent(sub.frames_sent);
+      o->set_frames_missed(sub.frames_missed);
+      for (v1::Product p : sub.products.List()) o->add_products(p);
+    }
+    ToProto(s.recording, out->mutable_recording());
+    return grpc::Status::OK;
+  }
+
+ private:
+  absl::Status RunStream(grpc::ServerContext* context, const StreamPlan& plan,
+                         Subscription& subscription, grpc::ServerWriter<v1::Frame>* writer) {
+    absl::Time last_sent = absl::InfinitePast();
+    uint64_t missed_pending = 0;
+    uint64_t sent = 0;
+    while (!context->IsCancelled()) {
+      uint64_t missed = 0;
+      std::shared_ptr<const PublishedFrame> published = subscription.Next(kPollInterval, &missed);
+      missed_pending += missed;
+      if (published == nullptr) {
+        if (subscription.closed()) {
+          return absl::UnavailableError("transientd is shutting down");
+        }
+        continue;
+      }
+      v1::Frame frame;
+      frame.set_state(ToProto(published->state));
+      *frame.mutable_publish_time() = ToTimestamp(published->publish);
+      if (published->announcement) {
+        frame.set_missed(missed_pending);
+        missed_pending = 0;
+        if (!writer->Write(frame)) return absl::CancelledError("the client went away");
+        if (published->state == SourceState::kEnded) {
+          return absl::OutOfRangeError(absl::StrCat("the source ", pipeline_->source_uri(),
+                                                    " ended after ", sent,
+                                                    " frames to this client"));
+        }
+        continue;
+      }
+      if (published->publish - last_sent < plan.min_interval) continue;  // max_rate_hz
+      absl::StatusOr<bool> complete = EncodeProducts(plan, *published->products, &frame);
+      if (!complete.ok()) return complete.status();
+      if (!*complete) continue;  // published before this subscriber's products were computed
+      frame.set_sequence(published->sequence);
+      frame.set_capture_time_s(published->capture_time_s);
+      frame.set_missed(missed_pending);
+      frame.set_latency_s(absl::ToDoubleSeconds(published->publish - published->arrival));
+      v1::Roi* roi = frame.mutable_roi();
+      roi->set_x(plan.rect.x);
+      roi->set_y(plan.rect.y);
+      roi->set_width(plan.rect.width);
+      roi->set_height(plan.rect.height);
+      missed_pending = 0;
+      if (!writer->Write(frame)) return absl::CancelledError("the client went away");
+      last_sent = published->publish;
+      ++sent;
+    }
+    return absl::CancelledError("the client cancelled the stream");
+  }
+
+  absl::Status Pixel(const v1::GetPixelRequest& r, v1::Pixel* out) {
+    std::shared_ptr<const FrameProducts> latest = pipeline_->Latest();
+    if (latest == nullptr) {
+      return absl::UnavailableError(absl::StrCat("no frame reconstructed yet from ",
+                                                 pipeline_->source_uri(), "; retry shortly"));
+    }
+    const ImageGeometry g = latest->geometry;
+    if (r.x() >= static_cast<uint32_t>(g.width) || r.y() >= static_cast<uint32_t>(g.height)) {
+      return absl::InvalidArgumentError(absl::StrCat("pixel (", r.x(), ", ", r.y(),
+                                                     ") is outside the ", g.width, "x", g.height,
+                                                     " sensor"));
+    }
+    const int bins = r.bins() == 0 ? kDefaultPixelBins : static_cast<int>(std::min<uint32_t>(r.bins(), kMaxPixelBins + 1));
+    if (bins > kMaxPixelBins) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("bins = ", r.bins(), ": expected 1..", kMaxPixelBins, " (0 = 256)"));
+    }
+    const double bounds_r = r.bounds_r() == 0.0 ? 0.9 : r.bounds_r();
+    if (!(bounds_r > 0.0 && bounds_r < 1.0)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("bounds_r = ", r.bounds_r(), ": expected 0 < r < 1 (0 = 0.9)"));
+    }
+    const int64_t p = int64_t{r.y()} * g.width + r.x();
+    const SolvedImage& solved = *latest->solved;
+    out->set_sequence(latest->sequence);
+    out->set_x(r.x());
+    out->set_y(r.y());
+    out->set_flags(latest->flags[p]);
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    out->set_c0(solved.valid(p) ? solved.c0(p) : nan);
+    const std::vector<double> phases = UniformPhases(bins);
+    for (double phi : phases) {
+      out->add_time_of_flight_ns(PhaseToTimeOfFlightNs(phi, latest->base_frequency_hz));
+    }
+    if (!solved.valid(p)) {
+      out->set_range_m(nan);
+      out->set_uniform(nan);
+      return absl::OkStatus();  // flags say why; the curves stay empty
+    }
+    const SolvedImage one = SinglePixel(solved, p);
+    std::vector<float> density(phases.size()), cumulative(phases.size()), lower(phases.size()),
+        upper(phases.size());
+    DensitySlices(one, phases, density);
+    CumulativeSlices(one, phases, cumulative);
+    BoundSlices(one, bounds_r, phases, lower, upper);
+    for (size_t n = 0; n < phases.size(); ++n) {
+      out->add_density(density[n]);
+      out->add_cumulative(cumulative[n]);
+      out->add_lower(lower[n]);
+      out->add_upper(upper[n]);
+    }
+    const PisarenkoImage pisarenko = EstimatePisarenko(one);
+    for (int k = 0; k < pisarenko.order; ++k) {
+      const float phase = pisarenko.phase[k];
+      if (std::isnan(phase)) continue;
+      v1::Return* ret = out->add_returns();
+      ret->set_time_of_flight_ns(PhaseToTimeOfFlightNs(phase, latest->base_frequency_hz));
+      ret->set_range_m(phase / (2.0 * std::numbers::pi) * kSpeedOfLight /
+                       (2.0 * latest->base_frequency_hz));
+      ret->set_weight(pisarenko.weight[k]);
+    }
+    out->set_uniform(pisarenko.uniform[0]);
+    const ReconstructionConfig config = pipeline_->config();
+    const RangeOptions range_options{.base_frequency_hz = latest->base_frequency_hz,
+                                     .threshold = config.threshold};
+    float range = 0.0f;
+    uint8_t flags = one.flags[0];
+    if (config.range_method == RangeMethod::kMese) {
+      MeseRange(one, range_options, std::span<float>(&range, 1), std::span<uint8_t>(&flags, 1));
+    } else {
+      PisarenkoRange(pisarenko, range_options, std::span<float>(&range, 1),
+                     std::span<uint8_t>(&flags, 1));
+    }
+    out->set_range_m(range);
+    return absl::OkStatus();
+  }
+
+  Pipeline* const pipeline_;
+  const std::string version_;
+};
+
+absl::StatusOr<std::unique_ptr<TransientServer>> TransientServer::Start(
+    Pipeline* pipeline, const ServerOptions& options) {
+  std::unique_ptr<TransientServer> server(new TransientServer());
+  server->service_ = std::make_unique<Service>(pipeline, options.version);
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(server->service_.get());
+  server->server_ = builder.BuildAndStart();
+  if (server->server_ == nullptr || port == 0) {
+    return absl::UnavailableError(absl::StrCat(
+        "cannot listen on ", options.listen,
+        " (in use, not a local address, or not host:port)"));
+  }
+  server->port_ = port;
+  const size_t colon = options.listen.rfind(':');
+  server->host_ = colon == std::string::npos ? options.listen : options.listen.substr(0, colon);
+  if (grpc::HealthCheckServiceInterface* health = server->server_->GetHealthCheckService()) {
+    health->SetServingStatus("", true);
+    health->SetServingStatus(v1::Transient::service_full_name(), true);
+  }
+  return server;
+}
+
+TransientServer::~TransientServer() {
+  if (server_ != nullptr) Shutdown(absl::Seconds(1));
+}
+
+std::string TransientServer::address() const { return absl::StrCat(host_, ":", port_); }
+
+void TransientServer::Shutdown(absl::Duration deadline) {
+  if (server_ == nullptr) return;
+  if (grpc::HealthCheckServiceInterface* health = server_->GetHealthCheckService()) {
+    health->SetServingStatus(false);
+  }
+  server_->Shutdown(absl::ToChronoTime(absl::Now() + deadline));
+  server_->Wait();
+  server_.reset();
+}
+
+}  // namespace transient::service

@@ -1,0 +1,261 @@
+// transientd: streams modulated captures from a source through demodulation, calibration and
+// the trigonometric-moment reconstruction, and serves transient video and depth over gRPC.
+//
+//   transientd [--source URI] [--calibration FILE | --uncalibrated] [--listen HOST:PORT]
+//              [--config FILE] [--port-file FILE]
+//
+// SIGINT/SIGTERM: the recording in progress is closed (readable), streams end, exit 0.
+
+#include <pthread.h>
+#include <signal.h>
+
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <string>
+
+#include "CLI/CLI.hpp"
+#include "absl/strings/ascii.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
+#include "absl/time/clock.h"
+#include "transient/drivers/calibration_capture.h"
+#include "transient/drivers/calibration_file.h"
+#include "transient/drivers/capture_file.h"
+#include "transient/drivers/replay_source.h"
+#include "transient/service/pipeline.h"
+#include "transient/service/server.h"
+
+#ifndef TRANSIENT_VERSION
+#define TRANSIENT_VERSION "dev"
+#endif
+
+namespace transient::service {
+namespace {
+
+constexpr int kStartupCalibrationTakes = 20;
+
+void Log(const std::string& line) {
+  std::cerr << absl::FormatTime("%H:%M:%E3S", absl::Now(), absl::LocalTimeZone())
+            << " transientd: " << line << std::endl;
+}
+
+// `key = value` lines; '#' starts a comment. Keys: range_method (mese|pisarenko),
+// bias_epsilon, threshold, smoothing_sigma_px, takes, video (true|false).
+absl::Status ReadConfigFile(const std::string& path, ReconstructionConfig* config) {
+  std::ifstream in(path);
+  if (!in) return absl::NotFoundError(absl::StrCat(path, ": cannot be read"));
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    absl::string_view text = line;
+    if (size_t hash = text.find('#'); hash != absl::string_view::npos) text = text.substr(0, hash);
+    text = absl::StripAsciiWhitespace(text);
+    if (text.empty()) continue;
+    std::vector<std::string> parts = absl::StrSplit(text, absl::MaxSplits('=', 1));
+    auto where = [&] { return absl::StrCat(path, ":", number, ": "); };
+    if (parts.size() != 2) {
+      return absl::InvalidArgumentError(absl::StrCat(where(), "expected key = value"));
+    }
+    const std::string key(absl::StripAsciiWhitespace(parts[0]));
+    const std::string value(absl::StripAsciiWhitespace(parts[1]));
+    auto number_of = [&](double* out) -> absl::Status {
+      if (!absl::SimpleAtod(value, out)) {
+        return absl::InvalidArgumentError(absl::StrCat(where(), key, " = ", value,
+                                                       ": expected a number"));
+      }
+      return absl::OkStatus();
+    };
+    absl::Status status;
+    if (key == "range_method") {
+      if (value == "mese") {
+        config->range_method = RangeMethod::kMese;
+      } else if (value == "pisarenko") {
+        config->range_method = RangeMethod::kPisarenko;
+      } else {
+        status = absl::InvalidArgumentError(
+            absl::StrCat(where(), "range_method = ", value, ": expected mese or pisarenko"));
+      }
+    } else if (key == "bias_epsilon") {
+      status = number_of(&config->bias_epsilon);
+    } else if (key == "threshold") {
+      status = number_of(&config->threshold);
+    } else if (key == "smoothing_sigma_px") {
+      status = number_of(&config->smoothing_sigma_px);
+    } else if (key == "takes") {
+      if (!absl::SimpleAtoi(value, &config->takes)) {
+        status = absl::InvalidArgumentError(
+            absl::StrCat(where(), "takes = ", value, ": expected an integer"));
+      }
+    } else if (key == "video") {
+      if (!absl::SimpleAtob(value, &config->video)) {
+        status = absl::InvalidArgumentError(
+            absl::StrCat(where(), "video = ", value, ": expected true or false"));
+      }
+    } else {
+      status = absl::InvalidArgumentError(absl::StrCat(
+          where(), "unknown key '", key,
+          "'; expected range_method, bias_epsilon, threshold, smoothing_sigma_px, takes, video"));
+    }
+    if (!status.ok()) return status;
+  }
+  if (absl::Status status = config->Validate(); !status.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": ", status.message()));
+  }
+  return absl::OkStatus();
+}
+
+// The calibration to start with: --calibration FILE; for a replay, the one embedded in the
+// recording; for a simulator, measured now from its calibration scene (thesis §8.3.2).
+absl::Status ChooseCalibration(const std::string& uri, const std::string& file,
+                               bool uncalibrated, PipelineOptions* options) {
+  if (uncalibrated) return absl::OkStatus();
+  if (!file.empty()) {
+    absl::StatusOr<CalibrationTable> table = ReadCalibrationFile(file);
+    if (!table.ok()) return table.status();
+    options->calibration = *std::move(table);
+    options->calibration_origin = file;
+    return absl::OkStatus();
+  }
+  if (absl::StartsWith(uri, "replay:")) {
+    std::string path;
+    if (!ParseReplayUri(uri, &path).ok()) return absl::OkStatus();  // Create reports it
+    absl::StatusOr<CaptureReader> reader = CaptureReader::Open(path);
+    if (!reader.ok()) return reader.status();
+    if (reader->calibration().has_value()) {
+      options->calibration = reader->calibration();
+      options->calibration_origin = absl::StrCat(path, ": /calibration");
+    } else {
+      Log(absl::StrCat(path, " has no embedded calibration: moments are uncalibrated"));
+    }
+    return absl::OkStatus();
+  }
+  absl::StatusOr<std::string> calibration_uri = CalibrationSourceFor(uri);
+  if (!calibration_uri.ok()) {
+    Log(absl::StrCat("no calibration for ", uri,
+                     " (pass --calibration FILE): moments are uncalibrated"));
+    return absl::OkStatus();
+  }
+  absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSource(*calibration_uri);
+  if (!source.ok()) return source.status();
+  Log(absl::StrCat("calibrating against ", *calibration_uri, ": ", kStartupCalibrationTakes,
+                   " takes"));
+  absl::StatusOr<CalibrationCapture> measured =
+      CaptureCalibration(**source, kStartupCalibrationTakes);
+  if (!measured.ok()) return measured.status();
+  options->calibration = std::move(measured->table);
+  options->calibration_origin = absl::StrCat("measured at start from ", *calibration_uri);
+  return absl::OkStatus();
+}
+
+int Run(int argc, char** argv) {
+  CLI::App app{
+      "transientd: transient video and multipath-corrected depth from an AMCW time-of-flight "
+      "camera, served over gRPC (transient.v1.Transient; health checking and reflection on)."};
+  std::string source_uri = "sim:mirrors";
+  std::string calibration_path;
+  bool uncalibrated = false;
+  std::string listen = "127.0.0.1:50051";
+  std::string config_path;
+  std::string port_file;
+  double stats_interval_s = 10.0;
+  app.add_option("--source", source_uri,
+                 "capture source URI: sim:<scene>?key=value (see `transient sim --help`), "
+                 "replay:<file.h5>?loop=1&pace=fast")
+      ->capture_default_str();
+  app.add_option("--calibration", calibration_path,
+                 "calibration file (transient calibrate); default: a replay's embedded one, or "
+                 "for a simulator one measured at start from its calibration scene");
+  app.add_flag("--uncalibrated", uncalibrated, "use no calibration at all");
+  app.add_option("--listen", listen,
+                 "address to serve on, host:port; port 0 picks a free one (see --port-file). "
+                 "Loopback by default: use 0.0.0.0:PORT to serve other machines")
+      ->capture_default_str();
+  app.add_option("--config", config_path,
+                 "reconstruction settings, `key = value` lines: range_method (mese|pisarenko), "
+                 "bias_epsilon, threshold, smoothing_sigma_px, takes, video (true|false)");
+  app.add_option("--port-file", port_file, "write the port actually bound into this file");
+  app.add_option("--stats-interval", stats_interval_s, "seconds between stats lines in the log")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.set_version_flag("--version", TRANSIENT_VERSION);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  if (uncalibrated && !calibration_path.empty()) {
+    std::cerr << "transientd: --uncalibrated and --calibration exclude each other\n";
+    return 2;
+  }
+
+  // Signals are taken by sigwait below: every thread started from here on blocks them.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  PipelineOptions options;
+  options.source_uri = source_uri;
+  options.log = Log;
+  options.stats_log_interval = absl::Seconds(stats_interval_s);
+  if (!config_path.empty()) {
+    if (absl::Status status = ReadConfigFile(config_path, &options.config); !status.ok()) {
+      std::cerr << "transientd: " << status.message() << "\n";
+      return 2;
+    }
+  }
+  if (absl::Status status =
+          ChooseCalibration(source_uri, calibration_path, uncalibrated, &options);
+      !status.ok()) {
+    std::cerr << "transientd: " << status.message() << "\n";
+    return 2;
+  }
+  const int requested_takes = options.config.takes;
+  absl::StatusOr<std::unique_ptr<Pipeline>> pipeline = Pipeline::Create(std::move(options));
+  if (!pipeline.ok()) {
+    std::cerr << "transientd: " << pipeline.status().message() << "\n";
+    return 2;
+  }
+  if (!config_path.empty() && requested_takes != (*pipeline)->config().takes) {
+    ReconstructionConfig config = (*pipeline)->config();
+    config.takes = requested_takes;
+    if (absl::Status status = (*pipeline)->SetConfig(config); !status.ok()) {
+      std::cerr << "transientd: " << config_path << ": " << status.message() << "\n";
+      return 2;
+    }
+  }
+  absl::StatusOr<std::unique_ptr<TransientServer>> server =
+      TransientServer::Start(pipeline->get(), {.listen = listen, .version = TRANSIENT_VERSION});
+  if (!server.ok()) {
+    std::cerr << "transientd: " << server.status().message() << "\n";
+    return 2;
+  }
+  (*pipeline)->Start();
+  Log(absl::StrCat("serving ", (*pipeline)->source_uri(), " (", (*pipeline)->camera().geometry.width,
+                   "x", (*pipeline)->camera().geometry.height, ", ",
+                   (*pipeline)->schedule().Describe(), "; calibration: ",
+                   (*pipeline)->calibration_origin(), ") on ", (*server)->address()));
+  if (!port_file.empty()) {
+    // Written whole under a temporary name, so that a reader never sees a partial port.
+    const std::string partial = port_file + ".partial";
+    std::ofstream(partial) << (*server)->port() << "\n";
+    std::rename(partial.c_str(), port_file.c_str());
+  }
+
+  int signal_number = 0;
+  sigwait(&signals, &signal_number);
+  Log(absl::StrCat(signal_number == SIGINT ? "SIGINT" : "SIGTERM",
+                   ": closing the recording, ending streams"));
+  (*pipeline)->Stop();
+  (*server)->Shutdown(absl::Seconds(2));
+  Log("stopped");
+  return 0;
+}
+
+}  // namespace
+}  // namespace transient::service
+
+int main(int argc, char** argv) { return transient::service::Run(argc, argv); }

@@ -1,0 +1,699 @@
+// transientd's gRPC service on a loopback port chosen at run time, with real clients: products,
+// bad requests, many subscribers, disconnects, a lost source, recording and replay.
+#include <grpcpp/grpcpp.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <fstream>
+#include <map>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+#include "tests/tools/scratch_directory.h"
+#include "tests/tools/status_matchers.h"
+#include "transient/drivers/capture_file.h"
+#include "transient/drivers/simulator.h"
+#include "transient/service/grpc_status.h"
+#include "transient/service/image_encoding.h"
+#include "transient/service/pipeline.h"
+#include "transient/service/server.h"
+#include "transient/v1/transient.grpc.pb.h"
+
+namespace transient::service {
+namespace {
+
+using ::testing::Each;
+using ::testing::Gt;
+using ::testing::HasSubstr;
+using ::transient::tools::testing::IsOk;
+using ::transient::tools::testing::ScratchDirectory;
+using ::transient::tools::testing::StatusIs;
+
+constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
+
+std::unique_ptr<v1::Transient::Stub> Connect(int port) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(-1);
+  auto channel = grpc::CreateCustomChannel(absl::StrCat("127.0.0.1:", port),
+                                           grpc::InsecureChannelCredentials(), args);
+  return v1::Transient::NewStub(channel);
+}
+
+// A pipeline and its server in this process.
+class Daemon {
+ public:
+  explicit Daemon(PipelineOptions options) {
+    absl::StatusOr<std::unique_ptr<Pipeline>> pipeline = Pipeline::Create(std::move(options));
+    EXPECT_THAT(pipeline.status(), IsOk());
+    pipeline_ = *std::move(pipeline);
+    absl::StatusOr<std::unique_ptr<TransientServer>> server =
+        TransientServer::Start(pipeline_.get(), {.listen = "127.0.0.1:0", .version = "test"});
+    EXPECT_THAT(server.status(), IsOk());
+    server_ = *std::move(server);
+    pipeline_->Start();
+  }
+  explicit Daemon(const std::string& uri) : Daemon(PipelineOptions{.source_uri = uri}) {}
+  ~Daemon() { Stop(); }
+  void Stop() {
+    if (pipeline_ != nullptr) pipeline_->Stop();
+    if (server_ != nullptr) server_->Shutdown(absl::Seconds(2));
+  }
+
+  Pipeline& pipeline() { return *pipeline_; }
+  std::unique_ptr<v1::Transient::Stub> Stub() { return Connect(server_->port()); }
+
+  v1::Stats Stats() {
+    grpc::ClientContext context;
+    v1::Stats stats;
+    EXPECT_TRUE(Stub()->GetStats(&context, {}, &stats).ok());
+    return stats;
+  }
+
+ private:
+  std::unique_ptr<Pipeline> pipeline_;
+  std::unique_ptr<TransientServer> server_;
+};
+
+// Reads up to `frames` frames with images; returns the status the stream ended with (OK when
+// it was cut after `frames`).
+absl::Status Receive(v1::Transient::Stub& stub, const v1::StreamRequest& request, int frames,
+                     std::vector<v1::Frame>* out, absl::Duration deadline = absl::Seconds(30)) {
+  grpc::ClientContext context;
+  context.set_deadline(absl::ToChronoTime(absl::Now() + deadline));
+  std::unique_ptr<grpc::ClientReader<v1::Frame>> reader = stub.StreamFrames(&context, request);
+  v1::Frame frame;
+  while (static_cast<int>(out->size()) < frames && reader->Read(&frame)) {
+    out->push_back(frame);
+  }
+  if (static_cast<int>(out->size()) >= frames) {
+    context.TryCancel();
+    (void)reader->Finish();
+    return absl::OkStatus();
+  }
+  return FromGrpcStatus(reader->Finish());
+}
+
+int ImagesOf(const std::vector<v1::Frame>& frames) {
+  int n = 0;
+  for (const v1::Frame& f : frames) n += f.images_size() > 0;
+  return n;
+}
+
+v1::StreamRequest Request(std::initializer_list<v1::Product> products) {
+  v1::StreamRequest request;
+  for (v1::Product p : products) request.add_products(p);
+  return request;
+}
+
+TEST(Server, GetInfoDescribesSensorScheduleAndCalibration) {
+  Daemon daemon(kSmallSim);
+  grpc::ClientContext context;
+  v1::Info info;
+  ASSERT_TRUE(daemon.Stub()->GetInfo(&context, {}, &info).ok());
+  EXPECT_EQ(info.camera().width(), 32u);
+  EXPECT_EQ(info.camera().height(), 24u);
+  EXPECT_GT(info.camera().fx(), 0.0);
+  EXPECT_EQ(info.camera().distortion_size(), 5);
+  EXPECT_EQ(info.source_uri(), kSmallSim);
+  EXPECT_EQ(info.schedule().order(), 3u);
+  EXPECT_DOUBLE_EQ(info.schedule().base_frequency_hz(), 23e6);
+  EXPECT_EQ(info.schedule().raw_frames_per_frame(), 14u);
+  EXPECT_EQ(info.calibration(), "none");
+  EXPECT_EQ(info.products_size(), 9);
+  EXPECT_EQ(info.version(), "test");
+  EXPECT_NEAR(info.unambiguous_range_m(), 6.517, 1e-3);
+}
+
+TEST(Server, StreamDeliversTheRequestedProductsInTheRoiAndEncoding) {
+  Daemon daemon(kSmallSim);
+  v1::StreamRequest request = Request({v1::RANGE, v1::DEPTH, v1::SLICES, v1::MOMENT_STATE,
+                                       v1::FLAGS, v1::CUMULATIVE, v1::DIRECT_INDIRECT});
+  request.mutable_roi()->set_x(4);
+  request.mutable_roi()->set_y(2);
+  request.mutable_roi()->set_width(20);
+  request.mutable_roi()->set_height(10);
+  request.set_encoding(v1::FLOAT16);
+  request.set_compression(v1::ZSTD);
+  request.mutable_slices()->set_bins(8);
+  std::vector<v1::Frame> frames;
+  ASSERT_THAT(Receive(*daemon.Stub(), request, 3, &frames), IsOk());
+  ASSERT_EQ(ImagesOf(frames), 3);
+  const v1::Frame& frame = frames.back();
+  EXPECT_GT(frame.sequence(), frames.front().sequence());
+  EXPECT_GT(frame.latency_s(), 0.0);
+  EXPECT_GT(frame.publish_time().seconds(), 0);
+  std::map<std::string, v1::Image> images;
+  for (const v1::Image& image : frame.images()) images[image.name()] = image;
+  // range, depth, 8 slices, 8 cumulative, flags, direct, indirect, m = 3: 4 c_real, 3 c_imag,
+  // 4 q_real, 4 q_imag.
+  EXPECT_EQ(images.size(), 2u + 8 + 8 + 1 + 2 + 15);
+  for (const auto& [name, image] : images) {
+    EXPECT_EQ(image.width(), 20u) << name;
+    EXPECT_EQ(image.height(), 10u) << name;
+    EXPECT_EQ(image.compression(), v1::ZSTD) << name;
+    EXPECT_EQ(image.encoding(), name == "flags" ? "8UC1" : "16FC1") << name;
+  }
+  EXPECT_NEAR(images["slices/4"].time_of_flight_ns(), 4.0 / 8.0 / 23e6 * 1e9, 1e-9);
+  absl::StatusOr<std::vector<float>> range = DecodeImage(images["range"]);
+  absl::StatusOr<std::vector<float>> depth = DecodeImage(images["depth"]);
+  ASSERT_THAT(range.status(), IsOk());
+  ASSERT_THAT(depth.status(), IsOk());
+  int finite = 0;
+  for (size_t p = 0; p < range->size(); ++p) {
+    if (!std::isfinite((*range)[p])) continue;
+    ++finite;
+    EXPECT_GT((*range)[p], 0.5f);
+    EXPECT_LT((*range)[p], 7.0f);
+    EXPECT_LE((*depth)[p], (*range)[p] * 1.001f);  // Z never exceeds the radial distance
+  }
+  EXPECT_GT(finite, 150);
+}
+
+TEST(Server, BadStreamRequestsAreInvalidArgumentWhileAnotherStreamGoesOn) {
+  Daemon daemon(kSmallSim);
+  std::atomic<int> received{0};
+  std::atomic<bool> done{false};
+  grpc::ClientContext good_context;
+  auto good_stub = daemon.Stub();
+  std::unique_ptr<grpc::ClientReader<v1::Frame>> good =
+      good_stub->StreamFrames(&good_context, Request({v1::RANGE}));
+  std::thread reader([&] {
+    v1::Frame frame;
+    while (!done && good->Read(&frame)) received += frame.images_size() > 0;
+  });
+  const absl::Time first = absl::Now() + absl::Seconds(10);
+  while (received.load() == 0 && absl::Now() < first) absl::SleepFor(absl::Milliseconds(10));
+  EXPECT_GT(received.load(), 0);
+
+  auto expect_invalid = [&](v1::StreamRequest request, const std::string& field) {
+    std::vector<v1::Frame> frames;
+    EXPECT_THAT(Receive(*daemon.Stub(), request, 1, &frames),
+                StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr(field)))
+        << request.ShortDebugString();
+    EXPECT_TRUE(frames.empty());
+  };
+  expect_invalid(v1::StreamRequest(), "products");
+  v1::StreamRequest unknown;
+  unknown.add_products(static_cast<v1::Product>(42));
+  expect_invalid(unknown, "products: unknown product 42");
+  v1::StreamRequest roi = Request({v1::RANGE});
+  roi.mutable_roi()->set_x(30);
+  roi.mutable_roi()->set_width(8);
+  roi.mutable_roi()->set_height(8);
+  expect_invalid(roi, "roi");
+  v1::StreamRequest zero_bins = Request({v1::SLICES});
+  zero_bins.mutable_slices()->set_bins(0);
+  expect_invalid(zero_bins, "slices.bins = 0");
+  v1::StreamRequest huge_bins = Request({v1::SLICES});
+  huge_bins.mutable_slices()->set_bins(1000000);
+  expect_invalid(huge_bins, "slices.bins = 1000000");
+  v1::StreamRequest too_many = Request({v1::CUMULATIVE});
+  too_many.mutable_slices()->set_bins(4096);
+  expect_invalid(too_many, "at most 1024");
+  v1::StreamRequest mm_slices = Request({v1::SLICES});
+  mm_slices.set_encoding(v1::UINT16_MM);
+  expect_invalid(mm_slices, "UINT16_MM");
+  v1::StreamRequest rate = Request({v1::RANGE});
+  rate.set_max_rate_hz(-1.0);
+  expect_invalid(rate, "max_rate_hz");
+
+  // The good stream kept receiving through all of that, and goes on.
+  const int before = received.load();
+  const absl::Time until = absl::Now() + absl::Seconds(10);
+  while (received.load() < before + 3 && absl::Now() < until) absl::SleepFor(absl::Milliseconds(20));
+  EXPECT_GE(received.load(), before + 3);
+  done = true;
+  good_context.TryCancel();
+  reader.join();
+}
+
+TEST(Server, TwentySubscribersOneNeverReadsTheOthersKeepTheFullRate) {
+  Daemon daemon(kSmallSim);
+  // The stuck client asks for big frames (64 slices) with a 2-frame queue and never reads.
+  grpc::ClientContext stuck_context;
+  auto stuck_stub = daemon.Stub();
+  v1::StreamRequest stuck_request = Request({v1::SLICES, v1::MOMENT_STATE});
+  stuck_request.set_queue_frames(2);
+  std::unique_ptr<grpc::ClientReader<v1::Frame>> stuck =
+      stuck_stub->StreamFrames(&stuck_context, stuck_request);
+
+  constexpr int kReaders = 19;
+  std::atomic<bool> stop{false};
+  std::vector<int> counts(kReaders, 0);
+  std::vector<uint64_t> missed(kReaders, 0);
+  std::vector<std::thread> readers;
+  std::vector<std::unique_ptr<grpc::ClientContext>> contexts;
+  std::atomic<int> started{0};
+  for (int i = 0; i < kReaders; ++i) {
+    contexts.push_back(std::make_unique<grpc::ClientContext>());
+    readers.emplace_back([&, i] {
+      auto stub = daemon.Stub();
+      auto reader = stub->StreamFrames(contexts[i].get(), Request({v1::RANGE, v1::AMPLITUDE}));
+      v1::Frame frame;
+      bool first = true;
+      while (!stop && reader->Read(&frame)) {
+        if (frame.images_size() == 0) continue;
+        if (first) {
+          ++started;
+          first = false;
+          continue;  // counting starts once every reader is in
+        }
+        if (started.load() == kReaders) {
+          ++counts[i];
+          missed[i] += frame.missed();
+        }
+      }
+    });
+  }
+  const absl::Time begin_wait = absl::Now() + absl::Seconds(20);
+  while (started.load() < kReaders && absl::Now() < begin_wait) absl::SleepFor(absl::Milliseconds(10));
+  ASSERT_EQ(started.load(), kReaders);
+  const uint64_t published_before = daemon.Stats().frames_published();
+  absl::SleepFor(absl::Seconds(3));
+  const v1::Stats stats = daemon.Stats();
+  const uint64_t published = stats.frames_published() - published_before;
+  stop = true;
+  for (auto& c : contexts) c->TryCancel();
+  stuck_context.TryCancel();
+  for (auto& t : readers) t.join();
+
+  ASSERT_GT(published, 10u) << "the simulated camera runs at ~12 frames/s";
+  for (int i = 0; i < kReaders; ++i) {
+    // Every reader got (nearly) every frame published meanwhile; none was dropped for it.
+    EXPECT_GE(counts[i], static_cast<int>(published) - 3) << "reader " << i;
+    EXPECT_EQ(missed[i], 0u) << "reader " << i;
+  }
+  // The stuck subscriber lost frames instead of holding them all.
+  uint64_t stuck_missed = 0;
+  int subscribers = 0;
+  for (const v1::SubscriberStats& s : stats.subscribers()) {
+    ++subscribers;
+    if (s.products_size() == 2 && s.products(1) == v1::SLICES) stuck_missed = s.frames_missed();
+  }
+  EXPECT_EQ(subscribers, kReaders + 1);
+  EXPECT_GT(stuck_missed, 0u);
+  EXPECT_EQ(stats.cycles_dropped(), 0u) << "the pipeline never fell behind";
+}
+
+TEST(Server, ClientThatDisconnectsMidStreamIsForgottenAndOthersGoOn) {
+  Daemon daemon(kSmallSim);
+  auto stub = daemon.Stub();
+  grpc::ClientContext leaving;
+  auto reader = stub->StreamFrames(&leaving, Request({v1::RANGE}));
+  v1::Frame frame;
+  ASSERT_TRUE(reader->Read(&frame));
+  leaving.TryCancel();
+  (void)reader->Finish();
+  const absl::Time until = absl::Now() + absl::Seconds(5);
+  while (daemon.Stats().subscribers_size() > 0 && absl::Now() < until) {
+    absl::SleepFor(absl::Milliseconds(20));
+  }
+  EXPECT_EQ(daemon.Stats().subscribers_size(), 0);
+  std::vector<v1::Frame> frames;
+  EXPECT_THAT(Receive(*daemon.Stub(), Request({v1::RANGE}), 3, &frames), IsOk());
+  EXPECT_EQ(ImagesOf(frames), 3);
+}
+
+// A fake device, because a camera cannot be unplugged in CI: it delivers a real simulator's
+// frames, then reports the device lost (Unavailable); reopening fails twice, then works.
+class VanishingSource : public CaptureSource {
+ public:
+  VanishingSource(std::unique_ptr<CaptureSource> inner, int frames_until_lost)
+      : inner_(std::move(inner)), left_(frames_until_lost) {}
+  const std::string& uri() const override { return inner_->uri(); }
+  const CameraInfo& camera() const override { return inner_->camera(); }
+  const AcquisitionSchedule& schedule() const override { return inner_->schedule(); }
+  SourceCapabilities capabilities() const override { return inner_->capabilities(); }
+  absl::Status Start() override { return inner_->Start(); }
+  absl::Status Stop() override { return inner_->Stop(); }
+  absl::Status Next(absl::Duration timeout, RawFrame* frame) override {
+    if (left_ == 0) return absl::UnavailableError("test camera unplugged");
+    --left_;
+    return inner_->Next(timeout, frame);
+  }
+
+ private:
+  std::unique_ptr<CaptureSource> inner_;
+  int left_;
+};
+
+TEST(Server, LostSourceIsReopenedWhileClientsStayConnectedAndAreTold) {
+  std::atomic<int> opens{0};
+  PipelineOptions options{.source_uri = kSmallSim};
+  options.reopen_backoff_min = absl::Milliseconds(10);
+  options.open_source = [&](const std::string& uri)
+      -> absl::StatusOr<std::unique_ptr<CaptureSource>> {
+    const int n = opens++;
+    // 0: Create's probe; 1: the first stream; 2, 3: the device is gone; then it is back.
+    if (n == 2 || n == 3) return absl::UnavailableError("no such device");
+    absl::StatusOr<std::unique_ptr<CaptureSource>> inner = OpenSource(uri);
+    if (!inner.ok()) return inner.status();
+    return std::make_unique<VanishingSource>(*std::move(inner), n == 1 ? 14 * 3 : 1 << 30);
+  };
+  Daemon daemon(std::move(options));
+  auto stub = daemon.Stub();
+  grpc::ClientContext context;
+  context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(30)));
+  auto reader = stub->StreamFrames(&context, Request({v1::RANGE}));
+  std::vector<v1::SourceState> announcements;
+  int frames_after = 0;
+  v1::Frame frame;
+  while (frames_after < 3 && reader->Read(&frame)) {
+    if (frame.images_size() == 0) {
+      announcements.push_back(frame.state());
+    } else if (!announcements.empty() && announcements.back() == v1::STREAMING) {
+      ++frames_after;
+    }
+  }
+  context.TryCancel();
+  (void)reader->Finish();
+  EXPECT_EQ(frames_after, 3);
+  ASSERT_GE(announcements.size(), 2u);
+  EXPECT_EQ(announcements.front(), v1::RECONNECTING);
+  EXPECT_EQ(announcements.back(), v1::STREAMING);
+  EXPECT_GE(opens.load(), 5);
+  EXPECT_GE(daemon.Stats().source_reopens(), 1u);
+}
+
+TEST(Server, RecordingThroughTheRpcReplaysToTheSameMomentsBitForBit) {
+  ScratchDirectory dir;
+  const std::string path = dir.File("recorded.h5");
+  // Video mode off: it fills outliers from the previous frame, which a replay starting at the
+  // recording's first cycle does not have.
+  PipelineOptions live{.source_uri = "sim:mirrors?width=24&height=16&seed=3"};
+  live.config.video = false;
+  std::map<double, v1::Frame> live_frames;  // by capture time
+  uint64_t recorded = 0;
+  {
+    Daemon daemon(live);
+    auto stub = daemon.Stub();
+    grpc::ClientContext context;
+    context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(60)));
+    auto reader = stub->StreamFrames(&context, Request({v1::MOMENT_STATE}));
+    v1::Frame frame;
+    ASSERT_TRUE(reader->Read(&frame));
+    {
+      grpc::ClientContext start_context;
+      v1::StartRecordingRequest start;
+      start.set_path(path);
+      start.set_max_frames(5);
+      v1::Recording recording;
+      grpc::Status status = daemon.Stub()->StartRecording(&start_context, start, &recording);
+      ASSERT_TRUE(status.ok()) << status.error_message();
+      EXPECT_TRUE(recording.active());
+    }
+    while (reader->Read(&frame)) {
+      if (frame.images_size() > 0) live_frames[frame.capture_time_s()] = frame;
+      const v1::Stats stats = daemon.Stats();
+      if (!stats.recording().active() && stats.recording().raw_frames() > 0) {
+        recorded = stats.recording().raw_frames();
+        EXPECT_EQ(stats.recording().error(), "");
+        // A few more frames so that the recorded cycles have all been published.
+        for (int i = 0; i < 3 && reader->Read(&frame); ++i) {
+          live_frames[frame.capture_time_s()] = frame;
+        }
+        break;
+      }
+    }
+    context.TryCancel();
+    (void)reader->Finish();
+  }
+  ASSERT_EQ(recorded, 5u * 14u);
+
+  PipelineOptions replay{.source_uri = absl::StrCat("replay:", path, "?pace=fast")};
+  replay.config.video = false;
+  Daemon daemon(replay);
+  // The replay daemon uses no calibration unless given one: neither did the live one.
+  std::vector<v1::Frame> replayed;
+  // Subscribing races with the fast replay's first frames, so read what comes until the end.
+  absl::Status end = Receive(*daemon.Stub(), Request({v1::MOMENT_STATE}), 1000, &replayed);
+  EXPECT_THAT(end, StatusIs(absl::StatusCode::kOutOfRange, HasSubstr("ended")));
+  int compared = 0;
+  for (const v1::Frame& frame : replayed) {
+    if (frame.images_size() == 0) continue;
+    auto it = live_frames.find(frame.capture_time_s());
+    ASSERT_NE(it, live_frames.end()) << "replayed capture time " << frame.capture_time_s();
+    ASSERT_EQ(frame.images_size(), it->second.images_size());
+    for (int i = 0; i < frame.images_size(); ++i) {
+      EXPECT_EQ(frame.images(i).name(), it->second.images(i).name());
+      EXPECT_EQ(frame.images(i).data(), it->second.images(i).data())
+          << frame.images(i).name() << " of the frame at " << frame.capture_time_s() << " s";
+    }
+    ++compared;
+  }
+  EXPECT_GE(compared, 1);
+}
+
+TEST(Server, EndOfAReplayEndsNewStreamsWithOutOfRange) {
+  ScratchDirectory dir;
+  const std::string path = dir.File("short.h5");
+  {
+    absl::StatusOr<std::unique_ptr<CaptureSource>> sim =
+        OpenSource("sim:mirrors?width=16&height=12&pace=fast&frames=2");
+    ASSERT_THAT(sim.status(), IsOk());
+    ASSERT_THAT((*sim)->Start(), IsOk());
+    RawFrame frame;
+    ASSERT_THAT((*sim)->Next(absl::Seconds(5), &frame), IsOk());
+    absl::StatusOr<CaptureWriter> writer = CaptureWriter::Create(
+        path, (*sim)->camera(), (*sim)->schedule(),
+        {.saturation_level = frame.saturation_level});
+    ASSERT_THAT(writer.status(), IsOk());
+    do {
+      ASSERT_THAT(writer->Append(frame), IsOk());
+    } while ((*sim)->Next(absl::Seconds(5), &frame).ok());
+    ASSERT_THAT(writer->Close(), IsOk());
+  }
+  Daemon daemon(absl::StrCat("replay:", path, "?pace=fast"));
+  // The end is announced once both recorded frames have been reconstructed.
+  const absl::Time until = absl::Now() + absl::Seconds(10);
+  while ((daemon.pipeline().state() != SourceState::kEnded ||
+          daemon.Stats().frames_reconstructed() < 2) &&
+         absl::Now() < until) {
+    absl::SleepFor(absl::Milliseconds(10));
+  }
+  std::vector<v1::Frame> frames;
+  EXPECT_THAT(Receive(*daemon.Stub(), Request({v1::RANGE}), 1, &frames),
+              StatusIs(absl::StatusCode::kOutOfRange, HasSubstr("has ended")));
+  EXPECT_EQ(daemon.Stats().frames_reconstructed(), 2u) << daemon.Stats().DebugString();
+}
+
+TEST(Server, GetPixelGivesCurvesAndReturnsAndRefusesBadPixels) {
+  Daemon daemon(kSmallSim);
+  auto stub = daemon.Stub();
+  std::vector<v1::Frame> frames;
+  ASSERT_THAT(Receive(*stub, Request({v1::RANGE}), 1, &frames), IsOk());
+  v1::GetPixelRequest request;
+  request.set_x(16);
+  request.set_y(12);
+  request.set_bins(128);
+  v1::Pixel pixel;
+  {
+    grpc::ClientContext context;
+    ASSERT_TRUE(stub->GetPixel(&context, request, &pixel).ok());
+  }
+  EXPECT_EQ(pixel.density_size(), 128);
+  EXPECT_EQ(pixel.cumulative_size(), 128);
+  EXPECT_EQ(pixel.time_of_flight_ns_size(), 128);
+  EXPECT_THAT(std::vector<double>(pixel.lower().begin(), pixel.lower().end()),
+              Each(::testing::Ge(-1e-6)));
+  for (int n = 0; n < 128; ++n) EXPECT_LE(pixel.lower(n), pixel.upper(n) + 1e-6);
+  EXPECT_GE(pixel.returns_size(), 1);
+  EXPECT_GT(pixel.c0(), 0.0);
+  EXPECT_GT(pixel.range_m(), 0.5);
+
+  auto refused = [&](uint32_t x, uint32_t y, uint32_t bins, double r, const std::string& what) {
+    v1::GetPixelRequest bad;
+    bad.set_x(x);
+    bad.set_y(y);
+    bad.set_bins(bins);
+    bad.set_bounds_r(r);
+    grpc::ClientContext context;
+    v1::Pixel ignored;
+    grpc::Status status = stub->GetPixel(&context, bad, &ignored);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << what;
+    EXPECT_THAT(status.error_message(), HasSubstr(what));
+  };
+  refused(32, 0, 0, 0, "outside the 32x24 sensor");
+  refused(0, 24, 0, 0, "outside");
+  refused(0, 0, 70000, 0, "bins = 70000");
+  refused(0, 0, 0, 1.5, "bounds_r = 1.5");
+}
+
+TEST(Server, SetConfigRefusesAnInvalidFieldAndChangesNothing) {
+  Daemon daemon(kSmallSim);
+  auto stub = daemon.Stub();
+  v1::Config before;
+  {
+    grpc::ClientContext context;
+    ASSERT_TRUE(stub->GetConfig(&context, {}, &before).ok());
+  }
+  EXPECT_EQ(before.range_method(), v1::MESE);
+  auto refused = [&](const v1::Config& update, const std::string& field) {
+    grpc::ClientContext context;
+    v1::Config out;
+    grpc::Status status = stub->SetConfig(&context, update, &out);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << field;
+    EXPECT_THAT(status.error_message(), HasSubstr(field));
+  };
+  v1::Config bad;
+  bad.set_threshold(0.3);  // valid, but in the same update as an invalid field
+  bad.set_bias_epsilon(0.0);
+  refused(bad, "bias_epsilon");
+  v1::Config bad_sigma;
+  bad_sigma.set_smoothing_sigma_px(-1);
+  refused(bad_sigma, "smoothing_sigma_px");
+  v1::Config bad_takes;
+  bad_takes.set_takes(0);
+  refused(bad_takes, "takes");
+  v1::Config bad_method;
+  bad_method.set_range_method(v1::METHOD_UNSPECIFIED);
+  refused(bad_method, "range_method");
+  v1::Config after;
+  {
+    grpc::ClientContext context;
+    ASSERT_TRUE(stub->GetConfig(&context, {}, &after).ok());
+  }
+  EXPECT_EQ(after.SerializeAsString(), before.SerializeAsString());
+
+  v1::Config good;
+  good.set_range_method(v1::PISARENKO);
+  good.set_takes(2);
+  v1::Config applied;
+  {
+    grpc::ClientContext context;
+    ASSERT_TRUE(stub->SetConfig(&context, good, &applied).ok());
+  }
+  EXPECT_EQ(applied.range_method(), v1::PISARENKO);
+  EXPECT_EQ(applied.takes(), 2u);
+  EXPECT_DOUBLE_EQ(applied.threshold(), before.threshold());
+  // Two takes per frame now: the simulator was reopened with them and frames still come.
+  std::vector<v1::Frame> frames;
+  ASSERT_THAT(Receive(*stub, Request({v1::RANGE}), 2, &frames), IsOk());
+  grpc::ClientContext context;
+  v1::Info info;
+  ASSERT_TRUE(stub->GetInfo(&context, {}, &info).ok());
+  EXPECT_EQ(info.schedule().takes(), 2u);
+  EXPECT_THAT(info.source_uri(), HasSubstr("takes=2"));
+}
+
+TEST(Server, CalibrateStreamsProgressThenTheAppliedResult) {
+  ScratchDirectory dir;
+  Daemon daemon(kSmallSim);
+  auto stub = daemon.Stub();
+  v1::CalibrateRequest request;
+  request.set_takes(4);
+  request.set_output_path(dir.File("calibration.h5"));
+  grpc::ClientContext context;
+  auto reader = stub->Calibrate(&context, request);
+  std::vector<v1::CalibrateProgress> messages;
+  v1::CalibrateProgress message;
+  while (reader->Read(&message)) messages.push_back(message);
+  grpc::Status status = reader->Finish();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(messages.size(), 5u);
+  EXPECT_EQ(messages[0].done(), 1u);
+  EXPECT_EQ(messages[0].total(), 4u);
+  EXPECT_FALSE(messages[0].has_result());
+  ASSERT_TRUE(messages.back().has_result());
+  EXPECT_TRUE(messages.back().result().applied());
+  EXPECT_EQ(messages.back().result().pixels(), 32u * 24u);
+  EXPECT_GT(messages.back().result().usable_pixels(), 32u * 24u * 9 / 10);
+  EXPECT_TRUE(std::filesystem::exists(dir.File("calibration.h5")));
+  EXPECT_EQ(daemon.pipeline().calibration_origin(), dir.File("calibration.h5"));
+
+  // The same path again is refused: a calibration never replaces a file.
+  grpc::ClientContext again_context;
+  auto again = stub->Calibrate(&again_context, request);
+  while (again->Read(&message)) {
+  }
+  EXPECT_EQ(again->Finish().error_code(), grpc::StatusCode::ALREADY_EXISTS);
+}
+
+TEST(Server, RecordingRequestsAreCheckedAndStopWithoutRecordingIsRefused) {
+  ScratchDirectory dir;
+  Daemon daemon(kSmallSim);
+  auto stub = daemon.Stub();
+  {
+    grpc::ClientContext context;
+    v1::Recording out;
+    EXPECT_EQ(stub->StopRecording(&context, {}, &out).error_code(),
+              grpc::StatusCode::FAILED_PRECONDITION);
+  }
+  std::ofstream(dir.File("taken.h5")) << "x";
+  v1::StartRecordingRequest exists;
+  exists.set_path(dir.File("taken.h5"));
+  v1::StartRecordingRequest deflate;
+  deflate.set_path(dir.File("new.h5"));
+  deflate.set_deflate_level(12);
+  v1::StartRecordingRequest nowhere;
+  nowhere.set_path(dir.File("no/such/dir/x.h5"));
+  for (const auto& [request, code] :
+       std::vector<std::pair<v1::StartRecordingRequest, grpc::StatusCode>>{
+           {exists, grpc::StatusCode::ALREADY_EXISTS},
+           {deflate, grpc::StatusCode::INVALID_ARGUMENT},
+           {v1::StartRecordingRequest(), grpc::StatusCode::INVALID_ARGUMENT}}) {
+    grpc::ClientContext context;
+    v1::Recording out;
+    EXPECT_EQ(stub->StartRecording(&context, request, &out).error_code(), code)
+        << request.ShortDebugString();
+  }
+  grpc::ClientContext context;
+  v1::Recording out;
+  grpc::Status status = stub->StartRecording(&context, nowhere, &out);
+  EXPECT_FALSE(status.ok());
+  EXPECT_THAT(status.error_message(), HasSubstr("no/such/dir"));
+  // The stream is unaffected.
+  std::vector<v1::Frame> frames;
+  EXPECT_THAT(Receive(*stub, Request({v1::RANGE}), 2, &frames), IsOk());
+}
+
+#ifdef TRANSIENTD_BINARY
+// The real binary: SIGTERM during a recording closes the file (it reopens with every frame
+// written) and exits 0.
+TEST(TransientdBinary, SigtermDuringARecordingClosesTheFileAndExitsZero) {
+  ScratchDirectory dir;
+  const std::string port_file = dir.File("port");
+  const std::string capture = dir.File("capture.h5");
+  const pid_t child = fork();
+  if (child == 0) {
+    execl(TRANSIENTD_BINARY, TRANSIENTD_BINARY, "--source", "sim:mirrors?width=32&height=24",
+          "--listen", "127.0.0.1:0", "--port-file", port_file.c_str(), "--uncalibrated",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  int port = 0;
+  const absl::Time until = absl::Now() + absl::Seconds(30);
+  while (port == 0 && absl::Now() < until) {
+    std::ifstream(port_file) >> port;
+    if (port == 0) absl::SleepFor(absl::Milliseconds(20));
+  }
+  ASSERT_GT(port, 0) << "transientd did not write its port";
+  auto stub = Connect(port);
+  {
+    grpc::ClientContext context;
+    v1::StartRecordingRequest start;
+    start.set_path(capture);
+    v1::Recording out;
+    grpc::Status status = stub->StartRecording(&context, start, &out);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+  }
+  absl::SleepFor(absl::Milliseconds(1500));  // past the first one-second flush
+  ASSERT_EQ(kill(child, SIGTERM), 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status)) << "status " << status;
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  absl::StatusOr<CaptureReader> reader = CaptureReader::Open(capture);
+  ASSERT_THAT(reader.status(), IsOk());
+  EXPECT_GT(reader->frames(), 14);
+  RawFrame frame;
+  EXPECT_THAT(reader->Read(reader->frames() - 1, &frame), IsOk());
+}
+#endif
+
+}  // namespace
+}  // namespace transient::service

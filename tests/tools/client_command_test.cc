@@ -1,0 +1,732 @@
+// `transient client`: option validation, percentiles, an unreachable daemon, whole runs against
+// the real daemon (pipeline and gRPC server in this process, on a loopback port), and a fake
+// service only for what the real daemon cannot be made to do.
+#include "tools/transient/client_command.h"
+
+#include <arpa/inet.h>
+#include <gmock/gmock.h>
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <limits>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/time/clock.h"
+#include "absl/time/time.h"
+#include "tests/tools/image_readers.h"
+#include "tests/tools/scratch_directory.h"
+#include "tests/tools/status_matchers.h"
+#include "tools/transient/image_writers.h"
+#include "transient/drivers/capture_file.h"
+#include "transient/drivers/capture_source.h"
+#include "transient/service/pipeline.h"
+#include "transient/service/server.h"
+#include "transient/v1/transient.grpc.pb.h"
+#include "transient/v1/transient.pb.h"
+
+namespace transient::tools {
+namespace {
+
+using ::testing::AllOf;
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+using ::testing::Not;
+using ::testing::UnorderedElementsAreArray;
+using testing::IsOk;
+using testing::ScratchDirectory;
+using testing::StatusIs;
+
+constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
+
+ClientArgs GoodArgs(const std::string& dir = "/tmp/out") {
+  ClientArgs args;
+  args.output_dir = dir;
+  return args;
+}
+
+TEST(ClientArgs, DefaultsWithAnOutputDirectoryAreValid) {
+  EXPECT_THAT(GoodArgs().Validate(), IsOk());
+  EXPECT_EQ(GoodArgs().connect, "127.0.0.1:50051");
+  EXPECT_EQ(GoodArgs().frames, 30);
+  EXPECT_EQ(GoodArgs().bins, 64);
+}
+
+TEST(ClientArgs, UnknownProductsAreNamedWithTheValidOnes) {
+  ClientArgs args = GoodArgs();
+  args.products = {"range", "rnage", "slice"};
+  EXPECT_THAT(args.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       AllOf(HasSubstr("'rnage', 'slice'"),
+                             HasSubstr("valid: range, depth, amplitude, c0, flags, moment_state, "
+                                       "slices, cumulative, direct_indirect"))));
+  args.products = {};
+  EXPECT_THAT(args.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--products")));
+}
+
+TEST(ClientArgs, ExactlyOneOfFramesAndSecondsIsRequired) {
+  ClientArgs args = GoodArgs();
+  args.seconds = 2.0;
+  EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
+                                        HasSubstr("exactly one of --frames N and --seconds S")));
+  args.frames = 0;
+  EXPECT_THAT(args.Validate(), IsOk());
+  args.seconds = 0.0;
+  EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
+                                        HasSubstr("exactly one of --frames N")));
+  args.frames = -3;
+  EXPECT_THAT(args.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--frames = -3")));
+  args.frames = 0;
+  args.seconds = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THAT(args.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--seconds = nan")));
+}
+
+TEST(ClientArgs, BadNumbersAreRefusedNamingTheOption) {
+  ClientArgs args = GoodArgs();
+  args.bins = 0;
+  EXPECT_THAT(args.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--bins = 0: expected 1..1024")));
+  args = GoodArgs();
+  args.bins = 1025;
+  EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--bins")));
+  args = GoodArgs();
+  args.max_rate_hz = -1.0;
+  EXPECT_THAT(args.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--max-rate = -1")));
+  args = GoodArgs();
+  args.connect_timeout_s = 0.0;
+  EXPECT_THAT(args.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--connect-timeout = 0")));
+  args = GoodArgs();
+  args.roi = {.x = 0, .y = 0, .width = 10, .height = 0};
+  EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--roi")));
+  args = GoodArgs();
+  args.connect = "";
+  EXPECT_THAT(args.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--connect")));
+  args = GoodArgs();
+  args.output_dir = "";
+  EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--out")));
+}
+
+TEST(ClientArgs, EncodingMustBeKnownAndMillimetresOnlyForLengths) {
+  ClientArgs args = GoodArgs();
+  args.encoding = "float64";
+  EXPECT_THAT(args.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("--encoding 'float64': expected float32, float16 or mm")));
+  args.encoding = "mm";
+  args.products = {"range", "depth", "flags"};
+  EXPECT_THAT(args.Validate(), IsOk());
+  args.products = {"range", "slices"};
+  EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
+                                        AllOf(HasSubstr("--encoding mm"), HasSubstr("slices"))));
+  args.encoding = "float16";
+  EXPECT_THAT(args.Validate(), IsOk());
+}
+
+TEST(ParseRoi, ReadsFourNonNegativeIntegers) {
+  absl::StatusOr<ClientRoi> roi = ParseRoi("1,2,30,40");
+  ASSERT_THAT(roi.status(), IsOk());
+  EXPECT_EQ(roi->x, 1);
+  EXPECT_EQ(roi->y, 2);
+  EXPECT_EQ(roi->width, 30);
+  EXPECT_EQ(roi->height, 40);
+  for (const char* bad : {"1,2,3", "1,2,3,4,5", "a,b,c,d", "-1,0,4,4", "", "1,,3,4"}) {
+    EXPECT_THAT(ParseRoi(bad).status(),
+                StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("X,Y,W,H")))
+        << bad;
+  }
+}
+
+TEST(Percentile, InterpolatesLinearlyBetweenClosestRanksLikeNumpy) {
+  // np.percentile([4, 1, 3, 2], [0, 25, 50, 90, 100]) = [1, 1.75, 2.5, 3.7, 4]
+  constexpr double kTolerance = 1e-12;  // a few ulps of values near 4
+  const std::vector<double> values = {4.0, 1.0, 3.0, 2.0};
+  const std::vector<std::pair<double, double>> cases = {
+      {0.0, 1.0}, {25.0, 1.75}, {50.0, 2.5}, {90.0, 3.7}, {100.0, 4.0}};
+  for (const auto& [percent, expected] : cases) {
+    std::vector<double> copy = values;
+    EXPECT_NEAR(Percentile(std::span<double>(copy), percent), expected, kTolerance) << percent;
+  }
+}
+
+TEST(Percentile, SingleValueIsEveryPercentileAndNoValuesIsNan) {
+  std::vector<double> one = {7.5};
+  EXPECT_EQ(Percentile(std::span<double>(one), 0.0), 7.5);
+  EXPECT_EQ(Percentile(std::span<double>(one), 99.5), 7.5);
+  std::vector<double> none;
+  EXPECT_TRUE(std::isnan(Percentile(std::span<double>(none), 50.0)));
+}
+
+TEST(Percentile, FloatsOfAThousandValuesGiveTheRankedValue) {
+  // 0, 1, ..., 999 shuffled: the p-th percentile is 9.99 * p.
+  std::vector<float> values(1000);
+  for (int i = 0; i < 1000; ++i) values[i] = static_cast<float>((i * 367) % 1000);
+  EXPECT_NEAR(Percentile(std::span<float>(values), 99.5), 994.005, 1e-9);
+  EXPECT_NEAR(Percentile(std::span<float>(values), 50.0), 499.5, 1e-9);
+}
+
+// A loopback port that nothing listens on: bound, read, and closed again.
+int ClosedPort() {
+  const int socket_fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  address.sin_port = 0;
+  EXPECT_EQ(::bind(socket_fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
+  socklen_t length = sizeof(address);
+  EXPECT_EQ(::getsockname(socket_fd, reinterpret_cast<sockaddr*>(&address), &length), 0);
+  ::close(socket_fd);
+  return ntohs(address.sin_port);
+}
+
+TEST(RunClient, NothingListeningIsUnavailableWithinTheConnectTimeout) {
+  ScratchDirectory dir;
+  ClientArgs args = GoodArgs(dir.File("out"));
+  args.connect = absl::StrCat("127.0.0.1:", ClosedPort());
+  args.connect_timeout_s = 0.5;
+  const auto start = std::chrono::steady_clock::now();
+  const absl::StatusOr<ClientSummary> summary = RunClient(args);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_THAT(summary.status(),
+              StatusIs(absl::StatusCode::kUnavailable,
+                       HasSubstr("cannot reach transientd at " + args.connect + " within 0.5 s")));
+  EXPECT_LT(seconds, 3.0);
+}
+
+TEST(RunClient, InterruptWhileConnectingIsCancelled) {
+  ScratchDirectory dir;
+  ClientArgs args = GoodArgs(dir.File("out"));
+  args.connect = absl::StrCat("127.0.0.1:", ClosedPort());
+  args.connect_timeout_s = 30.0;
+  std::atomic<bool> cancel{true};
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_THAT(RunClient(args, {.cancel = &cancel}).status(),
+              StatusIs(absl::StatusCode::kCancelled, HasSubstr("connecting")));
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 3.0);
+}
+
+TEST(RunClient, OutputPathThatIsAFileIsRefusedBeforeConnecting) {
+  ScratchDirectory dir;
+  std::ofstream(dir.File("file")) << "x";
+  ClientArgs args = GoodArgs(dir.File("file"));
+  args.connect = absl::StrCat("127.0.0.1:", ClosedPort());
+  EXPECT_THAT(RunClient(args).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr(dir.File("file"))));
+}
+
+// ---- Against the real daemon ----
+
+constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";  // 12.5 frames/s
+constexpr int kSimWidth = 32;
+constexpr int kSimHeight = 24;
+
+// transientd in this process: a Pipeline and its TransientServer on a loopback port chosen at
+// run time (as in tests/service/server_test.cc). With start = false the server answers but the
+// source waits for Start(), so that a test can subscribe before the first frame.
+class Daemon {
+ public:
+  explicit Daemon(const std::string& uri, bool start = true) {
+    absl::StatusOr<std::unique_ptr<service::Pipeline>> pipeline =
+        service::Pipeline::Create({.source_uri = uri});
+    EXPECT_THAT(pipeline.status(), IsOk());
+    pipeline_ = *std::move(pipeline);
+    absl::StatusOr<std::unique_ptr<service::TransientServer>> server =
+        service::TransientServer::Start(pipeline_.get(),
+                                        {.listen = "127.0.0.1:0", .version = "test"});
+    EXPECT_THAT(server.status(), IsOk());
+    server_ = *std::move(server);
+    if (start) pipeline_->Start();
+  }
+  ~Daemon() {
+    if (pipeline_ != nullptr) pipeline_->Stop();
+    if (server_ != nullptr) server_->Shutdown(absl::Seconds(2));
+  }
+
+  service::Pipeline& pipeline() { return *pipeline_; }
+  std::string address() const { return absl::StrCat("127.0.0.1:", server_->port()); }
+
+  // Waits (at most 10 s) until `condition` holds; false if it never did.
+  bool WaitFor(const std::function<bool()>& condition) {
+    const absl::Time until = absl::Now() + absl::Seconds(10);
+    while (!condition()) {
+      if (absl::Now() >= until) return false;
+      absl::SleepFor(absl::Milliseconds(5));
+    }
+    return true;
+  }
+  bool WaitForFirstFrame() {
+    return WaitFor([this] { return pipeline_->Latest() != nullptr; });
+  }
+  bool WaitForSubscribers(size_t count) {
+    return WaitFor([this, count] { return pipeline_->Stats().subscribers.size() >= count; });
+  }
+
+ private:
+  std::unique_ptr<service::Pipeline> pipeline_;
+  std::unique_ptr<service::TransientServer> server_;
+};
+
+std::string Slurp(const std::string& path) {
+  std::ifstream stream(path);
+  return std::string(std::istreambuf_iterator<char>(stream), {});
+}
+
+std::vector<float> ReadTiff(const std::string& path) { return testing::ReadTiff(path).values; }
+
+// The 16-bit samples of a greyscale PNG (stored big-endian).
+std::vector<uint16_t> Png16Values(const testing::RawPng& png) {
+  std::vector<uint16_t> values(png.bytes.size() / 2);
+  for (size_t i = 0; i < values.size(); ++i) {
+    values[i] = static_cast<uint16_t>(png.bytes[2 * i] << 8 | png.bytes[2 * i + 1]);
+  }
+  return values;
+}
+
+// True when `value` survived a trip through IEEE half precision: a normal half has 10 mantissa
+// bits, so the low 13 of the float's 23 are zero (for 0.5..7 m every half is normal).
+bool IsHalfPrecision(float value) { return (std::bit_cast<uint32_t>(value) & 0x1fffu) == 0; }
+
+TEST(RunClient, ReceivesTheAskedFramesAndWritesTheLastOne) {
+  Daemon daemon(kSmallSim);
+  ScratchDirectory dir;
+  ClientArgs args = GoodArgs(dir.File("out"));
+  args.connect = daemon.address();
+  args.products = {"range", "depth", "slices", "flags"};
+  args.frames = 3;
+  args.bins = 16;
+  args.roi = {.x = 0, .y = 0, .width = kSimWidth, .height = kSimHeight};
+  args.zstd = true;
+  args.encoding = "float16";
+  int64_t progress_calls = 0;
+  const absl::StatusOr<ClientSummary> summary =
+      RunClient(args, {.on_progress = [&](int64_t done, int64_t total) {
+                         ++progress_calls;
+                         EXPECT_EQ(total, 3);
+                         EXPECT_LE(done, 3);
+                       }});
+  ASSERT_THAT(summary.status(), IsOk());
+
+  EXPECT_EQ(summary->frames, 3);
+  EXPECT_EQ(summary->corrupt_frames, 0);
+  EXPECT_EQ(progress_calls, 3);
+  // A simulator never fails: the daemon announces no state change.
+  EXPECT_EQ(summary->state_announcements, 0);
+  EXPECT_TRUE(summary->state_changes.empty());
+  EXPECT_EQ(summary->source_uri, kSmallSim);
+  EXPECT_EQ(summary->version, "test");
+  EXPECT_EQ(summary->camera_width, kSimWidth);
+  EXPECT_EQ(summary->camera_height, kSimHeight);
+  EXPECT_FALSE(summary->interrupted);
+  // Latency: the daemon's reconstruction time plus the loopback, never seconds.
+  EXPECT_GT(summary->latency.p50_ms, 0.0);
+  EXPECT_LT(summary->latency.max_ms, 5000.0);
+  EXPECT_LE(summary->latency.p50_ms, summary->latency.p90_ms);
+  EXPECT_LE(summary->latency.p90_ms, summary->latency.p99_ms);
+  EXPECT_LE(summary->latency.p99_ms, summary->latency.max_ms);
+  EXPECT_GT(summary->rate_hz, 0.0);
+  EXPECT_LT(summary->rate_hz, 100.0);  // a 12.5 frames/s source, give or take the network
+
+  // --bins 16: sixteen slices, one bin of the 23 MHz period apart.
+  ASSERT_EQ(summary->slice_time_of_flight_ns.size(), 16u);
+  for (int k = 0; k < 16; ++k) {
+    EXPECT_NEAR(summary->slice_time_of_flight_ns[k], k / 16.0 / 23e6 * 1e9, 1e-6) << k;
+  }
+  std::vector<std::string> expected_files = {"range.tiff", "depth.png", "flags.png",
+                                             "summary.json"};
+  for (int k = 0; k < 16; ++k) {
+    expected_files.push_back(absl::StrFormat("slices/slice_%03d.png", k));
+  }
+  EXPECT_THAT(summary->files, UnorderedElementsAreArray(expected_files));
+  EXPECT_EQ(summary->files.back(), "summary.json");
+  EXPECT_FALSE(std::filesystem::exists(dir.File("out/slices/slice_016.png")));
+  EXPECT_FALSE(std::filesystem::exists(dir.File("out/range_mm.png")));  // depth was asked
+
+  // Range in metres over the whole sensor, as float16 on the wire; pixels without a return NaN.
+  const testing::RawTiff range_tiff = testing::ReadTiff(dir.File("out/range.tiff"));
+  EXPECT_EQ(range_tiff.width, static_cast<uint32_t>(kSimWidth));
+  EXPECT_EQ(range_tiff.height, static_cast<uint32_t>(kSimHeight));
+  const std::vector<float>& range = range_tiff.values;
+  ASSERT_EQ(range.size(), static_cast<size_t>(kSimWidth * kSimHeight));
+  const testing::RawPng depth_png = testing::ReadPng(dir.File("out/depth.png"));
+  EXPECT_EQ(depth_png.width, static_cast<uint32_t>(kSimWidth));
+  EXPECT_EQ(depth_png.height, static_cast<uint32_t>(kSimHeight));
+  ASSERT_EQ(depth_png.bit_depth, 16);
+  const std::vector<uint16_t> depth_mm = Png16Values(depth_png);
+  ASSERT_EQ(depth_mm.size(), range.size());
+  int finite = 0;
+  for (size_t p = 0; p < range.size(); ++p) {
+    if (!std::isfinite(range[p])) continue;
+    ++finite;
+    EXPECT_GT(range[p], 0.5f) << p;
+    EXPECT_LT(range[p], 7.0f) << p;
+    EXPECT_TRUE(IsHalfPrecision(range[p])) << p << ": " << range[p];
+    // Z in millimetres never exceeds the radial distance.
+    EXPECT_GT(depth_mm[p], 0) << p;
+    EXPECT_LE(depth_mm[p], range[p] * 1001.0f + 1.0f) << p;
+  }
+  EXPECT_GT(finite, kSimWidth * kSimHeight / 2);
+
+  const testing::RawPng flags_png = testing::ReadPng(dir.File("out/flags.png"));
+  EXPECT_EQ(flags_png.width, static_cast<uint32_t>(kSimWidth));
+  EXPECT_EQ(flags_png.height, static_cast<uint32_t>(kSimHeight));
+  const testing::RawPng slice_png = testing::ReadPng(dir.File("out/slices/slice_015.png"));
+  EXPECT_EQ(slice_png.width, static_cast<uint32_t>(kSimWidth));
+  EXPECT_EQ(slice_png.height, static_cast<uint32_t>(kSimHeight));
+  EXPECT_GT(summary->slice_scale, 0.0f);
+  EXPECT_TRUE(std::isfinite(summary->slice_scale));
+
+  const std::string json = Slurp(dir.File("out/summary.json"));
+  EXPECT_THAT(json, HasSubstr("\"frames\": 3,"));
+  EXPECT_THAT(json, HasSubstr("\"address\": \"" + daemon.address() + "\""));
+  EXPECT_THAT(json, HasSubstr(absl::StrCat("\"source_uri\": \"", kSmallSim, "\"")));
+  EXPECT_THAT(json, HasSubstr("\"camera\": {\"width\": 32, \"height\": 24}"));
+  EXPECT_THAT(json, HasSubstr(absl::StrCat("\"frames_missed\": ", summary->frames_missed, ",")));
+  EXPECT_THAT(json, HasSubstr("\"state_changes\": [],"));
+  EXPECT_THAT(json, HasSubstr(absl::StrCat("\"latency_ms\": {\"p50\": ",
+                                           absl::StrFormat("%.10g", summary->latency.p50_ms),
+                                           ", \"p90\": ")));
+  EXPECT_THAT(json, HasSubstr("\"slice_time_of_flight_ns\": [0, 2.717391304, "));
+  EXPECT_THAT(json, HasSubstr("\"stream_error\": null"));
+}
+
+TEST(RunClient, RangeAloneAlsoWritesMillimetres) {
+  Daemon daemon(kSmallSim);
+  ScratchDirectory dir;
+  ClientArgs args = GoodArgs(dir.File("out"));
+  args.connect = daemon.address();
+  args.products = {"range"};
+  args.frames = 1;
+  args.roi = {.x = 4, .y = 2, .width = 20, .height = 10};
+  const absl::StatusOr<ClientSummary> summary = RunClient(args);
+  ASSERT_THAT(summary.status(), IsOk());
+  EXPECT_THAT(summary->files, ElementsAre("range.tiff", "range_mm.png", "summary.json"));
+  // Both files are the ROI, and the millimetres are the metres of the TIFF, rounded.
+  const testing::RawTiff tiff = testing::ReadTiff(dir.File("out/range.tiff"));
+  EXPECT_EQ(tiff.width, 20u);
+  EXPECT_EQ(tiff.height, 10u);
+  const testing::RawPng png = testing::ReadPng(dir.File("out/range_mm.png"));
+  EXPECT_EQ(png.width, 20u);
+  EXPECT_EQ(png.height, 10u);
+  ASSERT_EQ(png.bit_depth, 16);
+  const std::vector<uint16_t> millimetres = Png16Values(png);
+  ASSERT_EQ(tiff.values.size(), 200u);
+  ASSERT_EQ(millimetres.size(), 200u);
+  int finite = 0;
+  for (size_t p = 0; p < millimetres.size(); ++p) {
+    finite += std::isfinite(tiff.values[p]);
+    EXPECT_EQ(millimetres[p], MetresToMillimetres(tiff.values[p])) << p;
+  }
+  EXPECT_GT(finite, 100);
+}
+
+// A capture file of `cycles` transient frames of the small simulated camera, for replay.
+void WriteShortCapture(const std::string& path, int cycles) {
+  absl::StatusOr<std::unique_ptr<CaptureSource>> sim = OpenSource(
+      absl::StrCat("sim:mirrors?width=32&height=24&pace=fast&frames=", cycles));
+  ASSERT_THAT(sim.status(), IsOk());
+  ASSERT_THAT((*sim)->Start(), IsOk());
+  RawFrame frame;
+  ASSERT_THAT((*sim)->Next(absl::Seconds(5), &frame), IsOk());
+  absl::StatusOr<CaptureWriter> writer =
+      CaptureWriter::Create(path, (*sim)->camera(), (*sim)->schedule(),
+                            {.saturation_level = frame.saturation_level});
+  ASSERT_THAT(writer.status(), IsOk());
+  do {
+    ASSERT_THAT(writer->Append(frame), IsOk());
+  } while ((*sim)->Next(absl::Seconds(5), &frame).ok());
+  ASSERT_THAT(writer->Close(), IsOk());
+}
+
+TEST(RunClient, StreamErrorIsReturnedAfterWritingWhatArrived) {
+  // A replay that does not loop: the daemon sends its three frames, announces ENDED and ends
+  // the stream with OUT_OF_RANGE. The source starts only once the client is subscribed, so no
+  // frame is published before it listens; its queue (4) holds the three frames and the end.
+  // Paced like the recording (80 ms a frame), not pace=fast: at pace=fast the pipeline's cycle
+  // queue (2) can be full of recorded cycles when the end is announced, and the announcement
+  // then drops one of them (Pipeline::Impl::PushCycle), so 2 or 3 frames would arrive.
+  ScratchDirectory dir;
+  const std::string capture = dir.File("three.h5");
+  ASSERT_NO_FATAL_FAILURE(WriteShortCapture(capture, 3));
+  Daemon daemon(absl::StrCat("replay:", capture, "?pace=realtime"), /*start=*/false);
+  ClientArgs args = GoodArgs(dir.File("out"));
+  args.connect = daemon.address();
+  args.products = {"range"};
+  args.frames = 10;
+  absl::StatusOr<ClientSummary> summary = absl::UnknownError("not run");
+  std::thread client([&] { summary = RunClient(args); });
+  EXPECT_TRUE(daemon.WaitForSubscribers(1));
+  daemon.pipeline().Start();
+  client.join();
+
+  EXPECT_THAT(summary.status(),
+              StatusIs(absl::StatusCode::kOutOfRange,
+                       AllOf(HasSubstr(absl::StrCat("stream from transientd at ", args.connect,
+                                                    " failed after 3 frames")),
+                             HasSubstr("ended after 3 frames to this client"))));
+  const testing::RawTiff range = testing::ReadTiff(dir.File("out/range.tiff"));
+  EXPECT_EQ(range.width, static_cast<uint32_t>(kSimWidth));
+  EXPECT_EQ(range.height, static_cast<uint32_t>(kSimHeight));
+  EXPECT_TRUE(std::filesystem::exists(dir.File("out/range_mm.png")));
+  const std::string json = Slurp(dir.File("out/summary.json"));
+  EXPECT_THAT(json, HasSubstr("\"frames\": 3,"));
+  EXPECT_THAT(json, HasSubstr("\"frames_missed\": 0,"));
+  EXPECT_THAT(json, HasSubstr("\"state_changes\": [{\"after_frames\": 3, \"state\": "
+                              "\"ENDED\"}]"));
+  EXPECT_THAT(json, HasSubstr("\"stream_error\": \"the source replay:"));
+  EXPECT_THAT(json, HasSubstr("ended after 3 frames to this client\""));
+  EXPECT_THAT(json, HasSubstr("\"files\": [\"range.tiff\", \"range_mm.png\", \"summary.json\"]"));
+}
+
+TEST(RunClient, InterruptWritesWhatArrivedAndIsCancelled) {
+  Daemon daemon(kSmallSim);
+  ScratchDirectory dir;
+  ClientArgs args = GoodArgs(dir.File("out"));
+  args.connect = daemon.address();
+  args.products = {"range"};
+  args.frames = 1000;
+  std::atomic<bool> cancel{false};
+  const absl::StatusOr<ClientSummary> summary =
+      RunClient(args, {.on_progress =
+                           [&](int64_t done, int64_t) {
+                             if (done == 2) cancel.store(true);
+                           },
+                       .cancel = &cancel});
+  EXPECT_THAT(summary.status(),
+              StatusIs(absl::StatusCode::kCancelled, HasSubstr("interrupted after 2 frames")));
+  const testing::RawTiff range = testing::ReadTiff(dir.File("out/range.tiff"));
+  EXPECT_EQ(range.width, static_cast<uint32_t>(kSimWidth));
+  EXPECT_EQ(range.height, static_cast<uint32_t>(kSimHeight));
+  const std::string json = Slurp(dir.File("out/summary.json"));
+  EXPECT_THAT(json, HasSubstr("\"frames\": 2,"));
+  EXPECT_THAT(json, HasSubstr("\"interrupted\": true"));
+  EXPECT_THAT(json, HasSubstr("\"stream_error\": null"));  // our cancel is not the daemon's
+}
+
+TEST(RunClient, SecondsModeStopsWhenTheTimeIsUp) {
+  Daemon daemon(kSmallSim);  // endless: only the clock stops the client
+  ASSERT_TRUE(daemon.WaitForFirstFrame());
+  ScratchDirectory dir;
+  ClientArgs args = GoodArgs(dir.File("out"));
+  args.connect = daemon.address();
+  args.products = {"range"};
+  args.frames = 0;
+  args.seconds = 1.0;
+  const auto start = std::chrono::steady_clock::now();
+  const absl::StatusOr<ClientSummary> summary = RunClient(args);
+  const double elapsed =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_THAT(summary.status(), IsOk());
+  EXPECT_GT(summary->frames, 0);
+  EXPECT_LE(summary->frames, 30);  // 12.5 frames/s for a second, with room for a slow start
+  EXPECT_LE(summary->seconds, args.seconds + 0.1);
+  EXPECT_GE(elapsed, args.seconds);
+  EXPECT_LT(elapsed, 4.0);
+  EXPECT_FALSE(summary->interrupted);
+  EXPECT_TRUE(summary->stream_error.empty());
+}
+
+// ---- Against a fake service, for what the real daemon cannot be made to do ----
+
+constexpr int kWidth = 4;
+constexpr int kHeight = 3;
+
+// Little-endian bytes of the wire, written out byte by byte (the proto says little endian).
+std::string FloatBytes(const std::vector<float>& values) {
+  std::string bytes;
+  for (const float value : values) {
+    const uint32_t bits = std::bit_cast<uint32_t>(value);
+    for (int shift = 0; shift < 32; shift += 8) bytes.push_back(static_cast<char>(bits >> shift));
+  }
+  return bytes;
+}
+
+// Range of pixel i in frame `sequence`: distinct per frame so that "the last frame" is checked.
+float RangeOf(uint64_t sequence, int i) {
+  return i == 5 ? kNan : 1.0f + 0.01f * static_cast<float>(i) + static_cast<float>(sequence);
+}
+
+v1::Frame RangeFrame(uint64_t sequence) {
+  v1::Frame frame;
+  frame.set_sequence(sequence);
+  frame.set_state(v1::STREAMING);
+  frame.set_latency_s(0.010);
+  std::vector<float> range(kWidth * kHeight);
+  for (int i = 0; i < kWidth * kHeight; ++i) range[i] = RangeOf(sequence, i);
+  v1::Image* image = frame.add_images();
+  image->set_name("range");
+  image->set_product(v1::RANGE);
+  image->set_width(kWidth);
+  image->set_height(kHeight);
+  image->set_encoding("32FC1");
+  image->set_step(kWidth * 4);
+  image->set_data(FloatBytes(range));
+  return frame;
+}
+
+// A fake service: the real daemon cannot be made to send a corrupt image (it encodes every
+// image it sends itself), nor to end a stream cleanly with OK (its streams end only with an
+// error status or the client's cancel). This one sends `frames` range frames, frame number
+// `corrupt_at` with its data truncated, and then ends with OK.
+class CorruptingTransient final : public v1::Transient::Service {
+ public:
+  int frames = 3;
+  int corrupt_at = 1;
+
+  grpc::Status GetInfo(grpc::ServerContext*, const v1::GetInfoRequest*, v1::Info* info) override {
+    info->mutable_camera()->set_width(kWidth);
+    info->mutable_camera()->set_height(kHeight);
+    info->set_source_uri("sim:fake");
+    info->set_version("test");
+    info->set_state(v1::STREAMING);
+    return grpc::Status::OK;
+  }
+
+  grpc::Status StreamFrames(grpc::ServerContext* context, const v1::StreamRequest*,
+                            grpc::ServerWriter<v1::Frame>* writer) override {
+    for (int i = 0; i < frames && !context->IsCancelled(); ++i) {
+      v1::Frame frame = RangeFrame(static_cast<uint64_t>(i));
+      if (i == corrupt_at) frame.mutable_images(0)->mutable_data()->resize(7);
+      if (!writer->Write(frame)) break;
+    }
+    return grpc::Status::OK;
+  }
+};
+
+// A fake service's server on a loopback port chosen at run time.
+class FakeDaemon {
+ public:
+  explicit FakeDaemon(v1::Transient::Service* service) {
+    grpc::ServerBuilder builder;
+    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port_);
+    builder.RegisterService(service);
+    server_ = builder.BuildAndStart();
+  }
+  ~FakeDaemon() { server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(1)); }
+  std::string address() const { return absl::StrCat("127.0.0.1:", port_); }
+
+ private:
+  int port_ = 0;
+  std::unique_ptr<grpc::Server> server_;
+};
+
+TEST(RunClient, CorruptFrameIsCountedAndACleanEndIsNotAnError) {
+  CorruptingTransient service;  // a fake: see above
+  FakeDaemon daemon(&service);
+  ScratchDirectory dir;
+  ClientArgs args = GoodArgs(dir.File("out"));
+  args.connect = daemon.address();
+  args.products = {"range"};
+  args.frames = 10;
+  const absl::StatusOr<ClientSummary> summary = RunClient(args);
+  ASSERT_THAT(summary.status(), IsOk());
+  EXPECT_EQ(summary->frames, 2);
+  EXPECT_EQ(summary->corrupt_frames, 1);
+  EXPECT_EQ(ReadTiff(dir.File("out/range.tiff"))[0], RangeOf(2, 0));
+}
+
+TEST(RunClient, ProductTheDaemonDoesNotOfferIsRefused) {
+  // A fake service: the real daemon cannot be made to offer less than every product, so only a
+  // fake's GetInfo can leave one out.
+  class Offering final : public v1::Transient::Service {
+    grpc::Status GetInfo(grpc::ServerContext*, const v1::GetInfoRequest*,
+                         v1::Info* info) override {
+      info->add_products(v1::RANGE);
+      info->add_products(v1::DEPTH);
+      return grpc::Status::OK;
+    }
+  } service;
+  FakeDaemon daemon(&service);
+  ScratchDirectory dir;
+  ClientArgs args = GoodArgs(dir.File("out"));
+  args.connect = daemon.address();
+  args.products = {"range", "slices"};
+  EXPECT_THAT(RunClient(args).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       AllOf(HasSubstr("slices"), HasSubstr("offers range, depth"))));
+}
+
+// ---- The built binary ----
+
+struct Result {
+  int exit_code = -1;
+  std::string output;
+};
+
+Result RunBinary(const std::string& arguments) {
+  Result result;
+  const std::string command = absl::StrCat(TRANSIENT_BINARY, " ", arguments, " 2>&1 </dev/null");
+  std::FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  char buffer[4096];
+  size_t read = 0;
+  while ((read = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.output.append(buffer, read);
+  const int status = ::pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+TEST(TransientClientBinary, HelpNamesEveryOptionWithDefaultsAndTheFiles) {
+  const Result result = RunBinary("client --help");
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  for (const char* text : {"--connect", "127.0.0.1:50051", "--products", "range,slices",
+                           "--frames", "30", "--seconds", "--out", "--roi", "--bins", "64",
+                           "--encoding", "float32", "--zstd", "--max-rate", "Hz",
+                           "--connect-timeout", "depth.png", "range.tiff", "summary.json",
+                           "millimetres", "metres", "130"}) {
+    EXPECT_THAT(result.output, HasSubstr(text));
+  }
+}
+
+TEST(TransientClientBinary, BadProductExitsWithTwoAndOneErrorLine) {
+  ScratchDirectory dir;
+  const Result result =
+      RunBinary(absl::StrCat("client --products range,bogus --out ", dir.File("out")));
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_EQ(result.output,
+            "error: --products: unknown product 'bogus'; valid: range, depth, amplitude, c0, "
+            "flags, moment_state, slices, cumulative, direct_indirect\n");
+}
+
+TEST(TransientClientBinary, UnreachableDaemonExitsWithOne) {
+  ScratchDirectory dir;
+  const Result result =
+      RunBinary(absl::StrCat("client --connect 127.0.0.1:", ClosedPort(),
+                             " --connect-timeout 0.3 --out ", dir.File("out")));
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_THAT(result.output, HasSubstr("error: cannot reach transientd at 127.0.0.1:"));
+}
+
+TEST(TransientClientBinary, SecondsAloneReplacesTheDefaultFrames) {
+  ScratchDirectory dir;
+  const Result result = RunBinary(absl::StrCat("client --seconds 0.2 --connect 127.0.0.1:",
+                                               ClosedPort(), " --connect-timeout 0.3 --out ",
+                                               dir.File("out")));
+  EXPECT_EQ(result.exit_code, 1) << result.output;  // past validation, to the connection
+  EXPECT_THAT(result.output, Not(HasSubstr("exactly one of")));
+}
+
+}  // namespace
+}  // namespace transient::tools

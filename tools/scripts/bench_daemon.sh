@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# End-to-end speed of transientd (the issue's targets): the simulated camera as fast as it can
+# produce, the daemon reconstructing, `transient client` receiving over loopback gRPC. Prints
+# one line per case from the client's summary.json: frames/s received, latency percentiles
+# (last raw frame of a cycle -> client), frames missed by the client, cycles the daemon dropped.
+#   usage: tools/scripts/bench_daemon.sh BUILD_DIR [SECONDS]
+set -euo pipefail
+build=${1:?usage: bench_daemon.sh BUILD_DIR [SECONDS]}
+seconds=${2:-10}
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+run_case() {  # name source products [client options...]
+  local name=$1 source=$2 products=$3
+  shift 3
+  rm -f "$work/port"
+  "$build/service/transientd" --source "$source" --listen 127.0.0.1:0 --port-file "$work/port" \
+    --stats-interval 1000 2> "$work/$name.log" &
+  local daemon=$!
+  for _ in $(seq 600); do [[ -s "$work/port" ]] && break; sleep 0.1; done
+  "$build/tools/transient/transient" client --connect "127.0.0.1:$(cat "$work/port")" \
+    --products "$products" --seconds "$seconds" --out "$work/$name" "$@" > /dev/null
+  kill -TERM "$daemon"
+  wait "$daemon"
+  /usr/bin/python3 - "$name" "$source" "$products" "$work/$name/summary.json" <<'PY'
+import json, sys
+name, source, products, path = sys.argv[1:]
+s = json.load(open(path))
+lat = s["latency_ms"]
+print(f"{name:28s} {s['rate_hz']:7.1f} frames/s  latency p50 {lat['p50']:6.1f} ms  "
+      f"p99 {lat['p99']:6.1f} ms  missed {s['frames_missed']}  ({source}; {products})")
+PY
+}
+
+echo "transientd end to end, $(nproc) cores, ${seconds} s per case"
+run_case "163x120 m=3 realtime" "sim:mirrors" "range,slices" --bins 64
+run_case "163x120 m=3 fast camera" "sim:mirrors?pace=fast" "range,slices" --bins 64
+run_case "640x480 m=4 fast camera" "sim:mirrors?width=640&height=480&m=4&pace=fast" \
+  "range,amplitude"

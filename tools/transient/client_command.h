@@ -1,0 +1,118 @@
+// `transient client`: subscribes to a running transientd over gRPC, receives frames, measures
+// rate and latency, and writes the products of the last frame as images plus a JSON summary.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "tools/transient/capture_commands.h"
+
+namespace transient::tools {
+
+// A region of interest in sensor pixels; width = height = 0 is the whole sensor.
+struct ClientRoi {
+  int x = 0;
+  int y = 0;
+  int width = 0;
+  int height = 0;
+};
+
+// "X,Y,W,H" (four non-negative integers). InvalidArgument naming --roi otherwise.
+[[nodiscard]] absl::StatusOr<ClientRoi> ParseRoi(const std::string& text);
+
+// The product names of --products, in the order of the wire enum: range, depth, amplitude, c0,
+// flags, moment_state, slices, cumulative, direct_indirect.
+const std::vector<std::string>& ClientProductNames();
+
+// `transient client [--connect ADDR] --products range,slices --frames N --out DIR`.
+struct ClientArgs {
+  std::string connect = "127.0.0.1:50051";  // gRPC target: host:port, or unix:PATH
+  std::vector<std::string> products = {"range", "slices"};  // ClientProductNames()
+  int64_t frames = 30;   // frames with images to receive; 0 = --seconds decides
+  double seconds = 0.0;  // wall-clock seconds to receive for; 0 = --frames decides
+  std::string output_dir = {};  // created if missing
+  ClientRoi roi = {};
+  int bins = 64;                    // slices uniform over one period, 1..1024
+  std::string encoding = "float32";  // float32 | float16 | mm (range and depth only)
+  bool zstd = false;                 // ask for zstd-compressed images
+  double max_rate_hz = 0.0;          // at most this many frames a second; 0 = every frame
+  double connect_timeout_s = 5.0;    // how long to wait for the daemon, > 0
+
+  // Exactly one of frames > 0 and seconds > 0; known, non-empty products; the encoding fits
+  // them; bins 1..1024; a non-negative finite rate; an output directory. The message names the
+  // option, the value and the rule.
+  absl::Status Validate() const;
+};
+
+struct ClientLatency {
+  // Milliseconds from the end of the frame's capture to its arrival here: the daemon's own
+  // Frame.latency_s plus (arrival wall time - Frame.publish_time). NaN when no frame had a
+  // publish time.
+  double p50_ms = 0.0, p90_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;
+};
+
+struct ClientStateChange {
+  int64_t after_frames = 0;  // frames with images received before the announcement
+  std::string state = {};    // STREAMING, RECONNECTING, ENDED
+};
+
+struct ClientSummary {
+  std::string address = {};
+  std::string source_uri = {};
+  std::string version = {};  // the daemon's
+  int camera_width = 0, camera_height = 0;
+  int64_t frames = 0;               // frames with images, decoded
+  int64_t corrupt_frames = 0;       // frames with an image DecodeImage refused (dropped)
+  int64_t state_announcements = 0;  // frames without images
+  std::vector<ClientStateChange> state_changes = {};
+  double seconds = 0.0;  // from opening the stream to the last frame
+  double rate_hz = 0.0;  // (frames - 1) / (last arrival - first arrival); 0 below two frames
+  ClientLatency latency = {};
+  uint64_t frames_missed = 0;  // sum of Frame.missed: frames the daemon dropped for us
+  std::vector<double> slice_time_of_flight_ns = {};  // of the last frame's slices
+  float slice_scale = 0.0f;       // colour scale of the slice images (value at full colour)
+  float cumulative_scale = 0.0f;  // of the cumulative images
+  std::vector<std::string> files = {};  // written, relative to output_dir, summary.json last
+  std::string output_dir = {};
+  bool interrupted = false;
+  std::string stream_error = {};  // how the stream ended when it failed
+};
+
+// Connects to transientd at args.connect (Unavailable "cannot reach transientd at ADDR within
+// 5 s" when it does not answer in connect_timeout_s), calls GetInfo, then StreamFrames, and
+// receives frames until args.frames frames with images arrived or args.seconds passed. Each
+// image of each frame is decoded (DecodeImage); a frame with an undecodable image is counted in
+// corrupt_frames and skipped. Then writes into output_dir the products of the last good frame
+// (images of products that were not asked for are ignored):
+//   depth.png (16-bit mm, 0 = invalid)          DEPTH
+//   range.tiff (float m, NaN = none)            RANGE; also range_mm.png when DEPTH was not asked
+//   amplitude.tiff, c0.tiff                     AMPLITUDE, C0
+//   flags.png (8-bit, PixelFlag bits)           FLAGS
+//   slices/slice_000.png ...                    SLICES, colour-mapped (inferno), one scale for all
+//   cumulative/slice_000.png ...                CUMULATIVE, likewise
+//   moment_state/, direct_indirect/ (float TIFF per plane, or <product>.tiff for one plane)
+//   summary.json                                always, even after an error
+// The colour scale of a series is the 99.5th percentile of its finite values (1 when none is
+// positive), so that the series reads as a video of the light sweeping through the scene.
+// A stream that ends with an error returns that status (FromGrpcStatus, prefixed) after the
+// files are written; one that the daemon ends cleanly is a summary. On hooks.cancel the files of
+// what was received are written and Cancelled is returned. Progress: frames received of
+// args.frames (total 0 with --seconds).
+[[nodiscard]] absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args,
+                                                      const CommandHooks& hooks = {});
+
+// The summary as JSON (the content of summary.json) and as a few lines for a terminal.
+std::string ClientSummaryJson(const ClientSummary& summary);
+std::string FormatClientSummary(const ClientSummary& summary);
+
+// The `percent`-th percentile (0..100) of `values`, linear between the closest ranks
+// (Hyndman & Fan type 7, numpy's default): 0 is the minimum, 100 the maximum. NaN for no
+// values. Reorders `values`; NaN inside is not allowed (asserted in debug builds).
+double Percentile(std::span<double> values, double percent);
+double Percentile(std::span<float> values, double percent);
+
+}  // namespace transient::tools
