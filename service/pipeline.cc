@@ -194,6 +194,9 @@ struct Pipeline::Impl {
     MomentImage moments;
     DemodulationReport report;
     uint64_t sequence = 0;
+    // Solved images recycled once no frame holds them any more: at 640x480 a fresh one costs
+    // ~50 MB of page faults per frame.
+    std::vector<std::shared_ptr<SolvedImage>> solved_pool;
   } reconstruct_state;
 
   Pipeline* owner = nullptr;
@@ -607,7 +610,18 @@ void Pipeline::Impl::Reconstruct(CycleItem& item) {
   const ZerothMoment zeroth = item.schedule->options().zeroth == ZerothScheme::kEstimated
                                   ? ZerothMoment::kEstimate
                                   : ZerothMoment::kMeasured;
-  auto solved = std::make_shared<SolvedImage>();
+  std::shared_ptr<SolvedImage> solved;
+  for (const auto& candidate : st.solved_pool) {
+    // Only the pool holds it: no published frame (nor Latest()) can reach it any more.
+    if (candidate.use_count() == 1) {
+      solved = candidate;
+      break;
+    }
+  }
+  if (solved == nullptr) {
+    solved = std::make_shared<SolvedImage>();
+    if (st.solved_pool.size() < 8) st.solved_pool.push_back(solved);
+  }
   Solve(st.moments, SolveOptions{.bias_epsilon = cfg.bias_epsilon, .zeroth = zeroth},
         solved.get());
   const ProductOptions product_options{

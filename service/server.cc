@@ -237,8 +237,8 @@ absl::StatusOr<ReconstructionConfig> Merge(const ReconstructionConfig& current,
   if (update.has_threshold()) c.threshold = update.threshold();
   if (update.has_smoothing_sigma_px()) c.smoothing_sigma_px = update.smoothing_sigma_px();
   if (update.has_takes()) {
-    if (update.takes() > 1024) {
-      return absl::InvalidArgumentError(absl::StrCat("takes = ", update.takes(), ": expected 1..64"));
+    if (update.takes() > 1024) {  // before the int conversion; Validate() names the range
+      return absl::InvalidArgumentError(absl::StrCat("takes = ", update.takes(), ": too large"));
     }
     c.takes = static_cast<int>(update.takes());
   }
@@ -360,7 +360,11 @@ class TransientServer::Service final : public v1::Transient::Service {
 
   grpc::Status Calibrate(grpc::ServerContext* context, const v1::CalibrateRequest* request,
                          grpc::ServerWriter<v1::CalibrateProgress>* writer) override {
-    const int takes = request->takes() == 0 ? 20 : static_cast<int>(std::min(request->takes(), 1024u));
+    if (request->takes() > 256) {
+      return ToGrpcStatus(absl::InvalidArgumentError(
+          absl::StrCat("takes = ", request->takes(), ": expected 1..256 (0 = 20)")));
+    }
+    const int takes = request->takes() == 0 ? 20 : static_cast<int>(request->takes());
     std::atomic<bool> cancel{false};
     auto on_take = [&](int done, int total) {
       v1::CalibrateProgress progress;
@@ -388,8 +392,10 @@ class TransientServer::Service final : public v1::Transient::Service {
 
   grpc::Status StartRecording(grpc::ServerContext*, const v1::StartRecordingRequest* request,
                               v1::Recording* out) override {
-    const int deflate =
-        request->deflate_level() == 0 ? 1 : static_cast<int>(std::min(request->deflate_level(), 100u));
+    // 0 = the default level 1; above 9 is refused by the pipeline, naming the value.
+    const int deflate = request->deflate_level() == 0
+                            ? 1
+                            : static_cast<int>(std::min(request->deflate_level(), 1000u));
     absl::StatusOr<RecordingStatus> status =
         pipeline_->StartRecording(request->path(), request->max_frames(), deflate);
     if (!status.ok()) return ToGrpcStatus(status.status());
