@@ -103,6 +103,21 @@ int ImagesOf(const std::vector<v1::Frame>& frames) {
   return n;
 }
 
+// Resident memory of this process (daemon and clients), bytes.
+int64_t ResidentBytes() {
+  std::ifstream status("/proc/self/status");
+  std::string key;
+  while (status >> key) {
+    if (key == "VmRSS:") {
+      int64_t kib = 0;
+      status >> kib;
+      return kib * 1024;
+    }
+    status.ignore(1 << 20, '\n');
+  }
+  return -1;
+}
+
 v1::StreamRequest Request(std::initializer_list<v1::Product> products) {
   v1::StreamRequest request;
   for (v1::Product p : products) request.add_products(p);
@@ -272,9 +287,14 @@ TEST(Server, TwentySubscribersOneNeverReadsTheOthersKeepTheFullRate) {
   const absl::Time begin_wait = absl::Now() + absl::Seconds(20);
   while (started.load() < kReaders && absl::Now() < begin_wait) absl::SleepFor(absl::Milliseconds(10));
   ASSERT_EQ(started.load(), kReaders);
+  // Two seconds for the stuck stream to fill its queue and gRPC's flow-control window; from
+  // then on its frames must be dropped, not kept.
+  absl::SleepFor(absl::Seconds(2));
   const uint64_t published_before = daemon.Stats().frames_published();
+  const int64_t resident_before = ResidentBytes();
   absl::SleepFor(absl::Seconds(3));
   const v1::Stats stats = daemon.Stats();
+  const int64_t resident_after = ResidentBytes();
   const uint64_t published = stats.frames_published() - published_before;
   stop = true;
   for (auto& c : contexts) c->TryCancel();
@@ -297,6 +317,10 @@ TEST(Server, TwentySubscribersOneNeverReadsTheOthersKeepTheFullRate) {
   EXPECT_EQ(subscribers, kReaders + 1);
   EXPECT_GT(stuck_missed, 0u);
   EXPECT_EQ(stats.cycles_dropped(), 0u) << "the pipeline never fell behind";
+  // Bounded memory: the stuck client's ~37 frames of 64 slices (200 kB each, 7.5 MB) of these
+  // 3 seconds are not kept.
+  EXPECT_LT(resident_after - resident_before, int64_t{4} << 20)
+      << "resident memory grew from " << resident_before << " to " << resident_after << " bytes";
 }
 
 TEST(Server, ClientThatDisconnectsMidStreamIsForgottenAndOthersGoOn) {
@@ -682,6 +706,14 @@ TEST(TransientdBinary, SigtermDuringARecordingClosesTheFileAndExitsZero) {
     ASSERT_TRUE(status.ok()) << status.error_message();
   }
   absl::SleepFor(absl::Milliseconds(1500));  // past the first one-second flush
+  uint64_t flushed = 0;
+  {
+    grpc::ClientContext context;
+    v1::Stats stats;
+    ASSERT_TRUE(stub->GetStats(&context, {}, &stats).ok());
+    flushed = stats.recording().flushed_frames();
+  }
+  EXPECT_GT(flushed, 0u);
   ASSERT_EQ(kill(child, SIGTERM), 0);
   int status = 0;
   ASSERT_EQ(waitpid(child, &status, 0), child);
@@ -689,6 +721,7 @@ TEST(TransientdBinary, SigtermDuringARecordingClosesTheFileAndExitsZero) {
   EXPECT_EQ(WEXITSTATUS(status), 0);
   absl::StatusOr<CaptureReader> reader = CaptureReader::Open(capture);
   ASSERT_THAT(reader.status(), IsOk());
+  EXPECT_GE(static_cast<uint64_t>(reader->frames()), flushed);
   EXPECT_GT(reader->frames(), 14);
   RawFrame frame;
   EXPECT_THAT(reader->Read(reader->frames() - 1, &frame), IsOk());
