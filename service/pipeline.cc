@@ -1,7 +1,12 @@
 #include "transient/service/pipeline.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <utility>
 
@@ -22,6 +27,7 @@ namespace {
 constexpr absl::Duration kNextTimeout = absl::Milliseconds(100);
 constexpr size_t kLatencyWindow = 1024;
 constexpr int kMaxTakes = 64;
+constexpr uint64_t kMaxRecordingFrames = uint64_t{1} << 32;
 
 // HDF5 (Debian's build) is not thread-safe: every HDF5 call of the daemon (replay reads,
 // recordings, calibration files) holds this.
@@ -43,6 +49,44 @@ double Percentile(std::vector<double> values, double q) {
   std::nth_element(values.begin(), values.begin() + static_cast<ptrdiff_t>(k), values.end());
   return values[k];
 }
+
+// The source of a Calibrate RPC: each call holds the HDF5 mutex only for itself (a replay reads
+// HDF5), so the stream goes on meanwhile; Next fails with Cancelled once the client went away
+// or the pipeline stops, so that neither waits for a calibration that cannot finish.
+class CalibrationSource final : public CaptureSource {
+ public:
+  CalibrationSource(std::unique_ptr<CaptureSource> inner, std::function<bool()> cancelled)
+      : inner_(std::move(inner)), cancelled_(std::move(cancelled)) {}
+  const std::string& uri() const override { return inner_->uri(); }
+  const CameraInfo& camera() const override { return inner_->camera(); }
+  const AcquisitionSchedule& schedule() const override { return inner_->schedule(); }
+  SourceCapabilities capabilities() const override { return inner_->capabilities(); }
+  absl::Status Start() override {
+    absl::MutexLock lock(&Hdf5Mutex());
+    return inner_->Start();
+  }
+  absl::Status Stop() override {
+    absl::MutexLock lock(&Hdf5Mutex());
+    return inner_->Stop();
+  }
+  absl::Status Next(absl::Duration timeout, RawFrame* frame) override {
+    // Short waits, so that cancellation is noticed within kNextTimeout.
+    const absl::Time end = absl::Now() + timeout;
+    while (true) {
+      if (cancelled_()) return absl::CancelledError("calibration cancelled");
+      absl::Status status;
+      {
+        absl::MutexLock lock(&Hdf5Mutex());
+        status = inner_->Next(std::min(kNextTimeout, end - absl::Now()), frame);
+      }
+      if (!absl::IsDeadlineExceeded(status) || absl::Now() >= end) return status;
+    }
+  }
+
+ private:
+  std::unique_ptr<CaptureSource> inner_;
+  std::function<bool()> cancelled_;
+};
 
 // One item of the queue between the source and the reconstruction thread: a complete capture
 // cycle, or a state change (kept in order with the frames).
@@ -97,11 +141,15 @@ Subscription::Subscription(uint64_t id, std::string peer, ProductRequest request
 void Subscription::Push(std::shared_ptr<const PublishedFrame> frame) {
   absl::MutexLock lock(&mu_);
   if (closed_) return;
-  // Announcements are never dropped; frames drop oldest-first.
+  // Frames drop oldest-first; announcements only when the queue holds nothing else (the newest
+  // state, pushed last, always stays).
   while (queue_.size() >= capacity_) {
     auto oldest = std::find_if(queue_.begin(), queue_.end(),
                                [](const auto& f) { return !f->announcement; });
-    if (oldest == queue_.end()) break;
+    if (oldest == queue_.end()) {
+      queue_.pop_front();
+      continue;
+    }
     queue_.erase(oldest);
     ++missed_since_last_;
     ++missed_total_;
@@ -156,7 +204,7 @@ struct Pipeline::Impl {
   // Source thread ------------------------------------------------------------------------------
   void SourceLoop();
   bool OpenSourceLocked() ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
-  void CloseSourceLocked() ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
+  void CloseSourceLocked(const std::string& reason) ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
   void ServeRecordingRequests(const RawFrame* frame, bool final) ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
   void Record(const RawFrame& frame) ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
   void FinishRecordingLocked(const std::string& error) ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
@@ -173,7 +221,7 @@ struct Pipeline::Impl {
   PipelineOptions options;
   std::atomic<bool> stopping{false};
   std::thread source_thread, reconstruct_thread;
-  bool started = false;
+  std::atomic<bool> started{false};
   bool block_when_full = false;  // a fast replay: never drop a recorded cycle
 
   // Source, assembler and recorder: source thread, under Hdf5Mutex().
@@ -209,7 +257,7 @@ struct Pipeline::Impl {
   bool reopen_requested ABSL_GUARDED_BY(mu) = false;
   ReconstructionConfig config ABSL_GUARDED_BY(mu);
   uint64_t config_version ABSL_GUARDED_BY(mu) = 0;
-  std::optional<CalibrationTable> calibration ABSL_GUARDED_BY(mu);
+  std::shared_ptr<const CalibrationTable> calibration ABSL_GUARDED_BY(mu);
   std::string calibration_origin ABSL_GUARDED_BY(mu);
   SourceState state ABSL_GUARDED_BY(mu) = SourceState::kStreaming;
   std::vector<std::shared_ptr<Subscription>> subscriptions ABSL_GUARDED_BY(mu);
@@ -271,7 +319,9 @@ bool Pipeline::Impl::OpenSourceLocked() {
   return true;
 }
 
-void Pipeline::Impl::CloseSourceLocked() {
+void Pipeline::Impl::CloseSourceLocked(const std::string& reason) {
+  // A recording holds one source's frames under one schedule: it ends with that source.
+  if (writer.has_value()) FinishRecordingLocked(absl::StrCat("stopped: ", reason));
   if (assembler.has_value()) {
     assembler_dropped_before += static_cast<uint64_t>(assembler->dropped_frames());
   }
@@ -303,8 +353,16 @@ void Pipeline::Impl::Announce(SourceState new_state) {
 
 void Pipeline::Impl::PushCycle(CycleItem item) {
   absl::MutexLock lock(&queue_mu);
-  // Announcements are never dropped and take no room: the bound is on frames.
+  // Announcements take no room (the bound is on frames) and are not dropped for frames; of a
+  // burst of them (a source failing again and again) only the latest 8 are kept.
   if (item.announcement) {
+    constexpr size_t kMaxAnnouncements = 8;
+    while (std::count_if(cycles.begin(), cycles.end(),
+                         [](const CycleItem& c) { return c.announcement; }) >=
+           static_cast<ptrdiff_t>(kMaxAnnouncements)) {
+      cycles.erase(std::find_if(cycles.begin(), cycles.end(),
+                                [](const CycleItem& c) { return c.announcement; }));
+    }
     cycles.push_back(std::move(item));
     return;
   }
@@ -336,18 +394,17 @@ void Pipeline::Impl::ServeRecordingRequests(const RawFrame* frame, bool final) {
   bool stop_requested = false;
   {
     absl::MutexLock lock(&mu);
-    pending = pending_recording;
-    pending_recording = nullptr;
+    // Without a frame a StartRecording stays pending (unless final): taken only when served,
+    // so that its own timeout can withdraw it.
+    if (frame != nullptr || final) {
+      pending = pending_recording;
+      pending_recording = nullptr;
+    }
     stop_requested = stop_recording_requested;
     stop_recording_requested = false;
   }
   if (stop_requested) FinishRecordingLocked("");
   if (pending == nullptr) return;
-  if (frame == nullptr && !final) {
-    absl::MutexLock lock(&mu);
-    if (pending_recording == nullptr) pending_recording = pending;
-    return;
-  }
   absl::Status result;
   if (writer.has_value()) {
     result = absl::FailedPreconditionError(
@@ -367,15 +424,15 @@ void Pipeline::Impl::ServeRecordingRequests(const RawFrame* frame, bool final) {
     if (created.ok()) {
       absl::StatusOr<GroundTruth> truth = source->GroundTruthAt(frame->config.timestamp_s);
       if (truth.ok()) result = created->SetGroundTruth(*truth);
-      std::optional<CalibrationTable> table;
+      std::shared_ptr<const CalibrationTable> table;
       {
         absl::MutexLock lock(&mu);
         table = calibration;
       }
-      if (result.ok() && table.has_value()) result = created->EmbedCalibration(*table);
+      if (result.ok() && table != nullptr) result = created->EmbedCalibration(*table);
       if (result.ok()) {
         writer.emplace(*std::move(created));
-        record_limit_raw = pending->max_frames *
+        record_limit_raw = pending->max_frames *  // max_frames <= kMaxRecordingFrames
                            static_cast<uint64_t>(source_schedule->raw_frames_per_frame());
         record_waiting_for_cycle_start = true;
         absl::MutexLock lock(&mu);
@@ -459,7 +516,7 @@ void Pipeline::Impl::SourceLoop() {
       bool opened;
       {
         absl::MutexLock lock(&Hdf5Mutex());
-        if (reopen) CloseSourceLocked();
+        if (reopen) CloseSourceLocked("the source was reopened with a new schedule");
         opened = OpenSourceLocked();
       }
       if (!opened) {
@@ -472,7 +529,6 @@ void Pipeline::Impl::SourceLoop() {
         backoff = std::min(backoff * 2, options.reopen_backoff_max);
         continue;
       }
-      backoff = options.reopen_backoff_min;
       if (reopen) {
         absl::MutexLock lock(&mu);
         ++stats.source_reopens;
@@ -496,13 +552,13 @@ void Pipeline::Impl::SourceLoop() {
         ServeRecordingRequests(nullptr, false);
       }
       if (absl::IsOutOfRange(next)) {
-        FinishRecordingLocked(absl::StrCat("stopped: ", source->uri(), " ended"));
-        CloseSourceLocked();
+        CloseSourceLocked(absl::StrCat(source->uri(), " ended"));
       } else if (!next.ok() && !absl::IsDeadlineExceeded(next) && !absl::IsDataLoss(next)) {
-        CloseSourceLocked();
+        CloseSourceLocked(absl::StrCat("the source failed: ", next.message()));
       }
     }
     if (next.ok()) {
+      backoff = options.reopen_backoff_min;  // only a source that delivers resets the backoff
       if (complete) {
         CycleItem item;
         item.frames = assembler->TakeCycle();
@@ -542,7 +598,8 @@ void Pipeline::Impl::SourceLoop() {
   }
   absl::MutexLock lock(&Hdf5Mutex());
   FinishRecordingLocked("");
-  CloseSourceLocked();
+  ServeRecordingRequests(nullptr, true);  // a StartRecording still waiting fails now
+  CloseSourceLocked("the daemon stopped");
 }
 
 ProductNeeds Pipeline::Impl::CurrentNeeds() {
@@ -576,12 +633,12 @@ void Pipeline::Impl::Reconstruct(CycleItem& item) {
 
   ReconstructionConfig cfg;
   uint64_t version;
-  std::optional<CalibrationTable> table;
+  std::shared_ptr<const CalibrationTable> table;
   {
     absl::MutexLock lock(&mu);
     cfg = config;
     version = config_version;
-    table = calibration;  // copy: SetConfig/Calibrate may replace it meanwhile
+    table = calibration;  // Calibrate may replace it meanwhile; this one stays valid
   }
   const absl::Time begin = absl::Now();
   const ImageGeometry geometry = item.frames.front().geometry;
@@ -599,7 +656,7 @@ void Pipeline::Impl::Reconstruct(CycleItem& item) {
     st.config_version = version;
   }
   absl::Status status = st.demodulator->Demodulate(item.frames, &st.moments, &st.report);
-  if (status.ok() && table.has_value()) status = ApplyCalibration(*table, &st.moments);
+  if (status.ok() && table != nullptr) status = ApplyCalibration(*table, &st.moments);
   if (status.ok()) status = GaussianSmooth(cfg.smoothing_sigma_px, &st.moments);
   if (!status.ok()) {
     Log(absl::StrCat("reconstruction: cycle refused: ", status.message()));
@@ -614,6 +671,8 @@ void Pipeline::Impl::Reconstruct(CycleItem& item) {
   for (const auto& candidate : st.solved_pool) {
     // Only the pool holds it: no published frame (nor Latest()) can reach it any more.
     if (candidate.use_count() == 1) {
+      // Orders our writes after the last reader's release of its reference.
+      std::atomic_thread_fence(std::memory_order_acquire);
       solved = candidate;
       break;
     }
@@ -725,7 +784,9 @@ absl::StatusOr<std::unique_ptr<Pipeline>> Pipeline::Create(PipelineOptions optio
   {
     absl::MutexLock lock(&impl.mu);
     impl.source_uri = impl.options.source_uri;
-    impl.calibration = impl.options.calibration;
+    if (impl.options.calibration.has_value()) {
+      impl.calibration = std::make_shared<const CalibrationTable>(*impl.options.calibration);
+    }
     impl.calibration_origin = impl.options.calibration_origin;
     impl.config = impl.options.config;
   }
@@ -757,8 +818,7 @@ absl::StatusOr<std::unique_ptr<Pipeline>> Pipeline::Create(PipelineOptions optio
 }
 
 void Pipeline::Start() {
-  if (impl_->started) return;
-  impl_->started = true;
+  if (impl_->started.exchange(true)) return;
   impl_->source_thread = std::thread([this] { impl_->SourceLoop(); });
   impl_->reconstruct_thread = std::thread([this] { impl_->ReconstructLoop(); });
 }
@@ -775,7 +835,7 @@ void Pipeline::Stop() {
   for (const auto& s : subscriptions) s->Close();
   if (!impl_->started) {
     absl::MutexLock lock(&Hdf5Mutex());
-    impl_->CloseSourceLocked();
+    impl_->CloseSourceLocked("the daemon stopped");
   }
 }
 
@@ -801,9 +861,40 @@ SourceState Pipeline::state() const {
   return impl_->state;
 }
 
-std::shared_ptr<Subscription> Pipeline::Subscribe(std::string peer, ProductRequest request,
-                                                  int queue_frames) {
+absl::StatusOr<std::shared_ptr<Subscription>> Pipeline::Subscribe(std::string peer,
+                                                                  ProductRequest request,
+                                                                  int queue_frames) {
   absl::MutexLock lock(&impl_->mu);
+  if (impl_->subscriptions.size() >= static_cast<size_t>(kMaxSubscribers)) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "transientd serves at most ", kMaxSubscribers, " streams at once; ",
+        impl_->subscriptions.size(), " are open"));
+  }
+  // Slices are computed once per distinct list for all subscribers: bound their sum.
+  if (request.products.Has(v1::SLICES) || request.products.Has(v1::CUMULATIVE)) {
+    std::map<std::vector<double>, int> planes;  // phase list -> density and/or cumulative
+    auto count = [&planes](const ProductRequest& r) {
+      int& n = planes[r.slice_phases];
+      n |= (r.products.Has(v1::SLICES) ? 1 : 0) | (r.products.Has(v1::CUMULATIVE) ? 2 : 0);
+    };
+    for (const auto& s : impl_->subscriptions) {
+      if (s->request().products.Has(v1::SLICES) || s->request().products.Has(v1::CUMULATIVE)) {
+        count(s->request());
+      }
+    }
+    count(request);
+    int64_t bytes = 0;
+    for (const auto& [phases, kinds] : planes) {
+      bytes += static_cast<int64_t>(phases.size()) * ((kinds & 1) + ((kinds >> 1) & 1)) *
+               impl_->camera.geometry.pixel_count() * 4;
+    }
+    if (bytes > kMaxSliceBytesAllStreams) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "slices: with this request the daemon would compute ", bytes >> 20,
+          " MiB of slices per frame for all streams together; at most ",
+          kMaxSliceBytesAllStreams >> 20, " MiB (ask for the slice lists other streams use)"));
+    }
+  }
   auto subscription = std::make_shared<Subscription>(impl_->next_subscription_id++,
                                                      std::move(peer), std::move(request),
                                                      queue_frames);
@@ -833,8 +924,13 @@ ReconstructionConfig Pipeline::config() const {
 
 absl::Status Pipeline::SetConfig(const ReconstructionConfig& config) {
   if (absl::Status status = config.Validate(); !status.ok()) return status;
+  {
   absl::MutexLock lock(&impl_->mu);
   if (config.takes != impl_->config.takes) {
+    if (impl_->state == SourceState::kEnded) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("takes: the source ", impl_->source_uri, " has ended"));
+    }
     if (!absl::StartsWith(impl_->source_uri, "sim:")) {
       return absl::FailedPreconditionError(absl::StrCat(
           "takes: the source ", impl_->source_uri, " fixes its schedule (", impl_->config.takes,
@@ -851,6 +947,7 @@ absl::Status Pipeline::SetConfig(const ReconstructionConfig& config) {
   }
   impl_->config = config;
   ++impl_->config_version;
+  }
   impl_->Log(absl::StrFormat(
       "config: range %s, bias_epsilon %g, threshold %g, smoothing %g px, %d takes, video %s",
       config.range_method == RangeMethod::kMese ? "mese" : "pisarenko", config.bias_epsilon,
@@ -860,7 +957,7 @@ absl::Status Pipeline::SetConfig(const ReconstructionConfig& config) {
 
 absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
     const std::string& source_uri, int takes, const std::string& output_path, bool keep_current,
-    const std::function<void(int, int)>& on_take, const std::atomic<bool>* cancel) {
+    const std::function<void(int, int)>& on_take, const std::function<bool()>& cancelled) {
   if (takes < 1 || takes > 256) {
     return absl::InvalidArgumentError(absl::StrCat("takes = ", takes, ": expected 1..256"));
   }
@@ -881,7 +978,7 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
     return absl::AlreadyExistsError(
         absl::StrCat("output_path: ", output_path, " exists; a calibration never replaces a file"));
   }
-  std::unique_ptr<CaptureSource> source;
+  std::unique_ptr<CaptureSource> opened_source;
   {
     absl::MutexLock lock(&Hdf5Mutex());  // a replay source reads HDF5 when opened
     SourceOpener open = impl_->options.open_source
@@ -889,16 +986,13 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
                             : [](const std::string& u) { return transient::OpenSource(u); };
     absl::StatusOr<std::unique_ptr<CaptureSource>> opened = open(uri);
     if (!opened.ok()) return opened.status();
-    source = *std::move(opened);
+    opened_source = *std::move(opened);
   }
-  const bool needs_lock = absl::StartsWith(uri, "replay:");
-  absl::StatusOr<CalibrationCapture> measured;
-  if (needs_lock) {
-    absl::MutexLock lock(&Hdf5Mutex());
-    measured = CaptureCalibration(*source, takes, {.on_take = on_take, .cancel = cancel});
-  } else {
-    measured = CaptureCalibration(*source, takes, {.on_take = on_take, .cancel = cancel});
-  }
+  CalibrationSource source(std::move(opened_source), [this, &cancelled] {
+    return impl_->stopping.load() || (cancelled && cancelled());
+  });
+  absl::StatusOr<CalibrationCapture> measured =
+      CaptureCalibration(source, takes, {.on_take = on_take});
   if (!measured.ok()) return measured.status();
   if (absl::Status status = CheckCalibrationMatches(measured->table, schedule->options(),
                                                     impl_->camera.geometry);
@@ -907,28 +1001,37 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
         absl::StrCat(uri, " does not fit the stream of ", stream_uri, ": ", status.message()));
   }
   if (!output_path.empty()) {
-    const std::string partial = output_path + ".partial";
-    absl::MutexLock lock(&Hdf5Mutex());
-    absl::Status status = WriteCalibrationFile(partial, measured->table);
-    std::error_code error;
-    if (status.ok()) {
-      std::filesystem::rename(partial, output_path, error);
-      if (error) {
-        status = absl::InternalError(absl::StrCat("output_path: cannot rename ", partial,
-                                                  " to ", output_path, ": ", error.message()));
-      }
+    // Written under a name of its own, then linked into place: link() refuses an existing
+    // file, so neither a file made meanwhile nor a concurrent Calibrate is replaced.
+    static std::atomic<uint64_t> counter{0};
+    const std::string partial =
+        absl::StrCat(output_path, ".partial.", getpid(), ".", counter.fetch_add(1));
+    absl::Status status;
+    {
+      absl::MutexLock lock(&Hdf5Mutex());
+      status = WriteCalibrationFile(partial, measured->table);
     }
-    if (!status.ok()) {
-      std::filesystem::remove(partial, error);
-      return status;
+    if (status.ok() && ::link(partial.c_str(), output_path.c_str()) != 0) {
+      const int error = errno;
+      status = error == EEXIST
+                   ? absl::AlreadyExistsError(absl::StrCat(
+                         "output_path: ", output_path, " exists; a calibration never replaces a file"))
+                   : absl::InternalError(absl::StrCat("output_path: cannot create ", output_path,
+                                                      ": ", std::strerror(error)));
     }
+    std::error_code ignored;
+    std::filesystem::remove(partial, ignored);
+    if (!status.ok()) return status;
   }
   if (!keep_current) {
-    absl::MutexLock lock(&impl_->mu);
-    impl_->calibration = measured->table;
-    impl_->calibration_origin =
+    const std::string origin =
         output_path.empty() ? absl::StrCat("measured from ", uri) : output_path;
-    impl_->Log(absl::StrCat("calibration: now ", impl_->calibration_origin));
+    {
+      absl::MutexLock lock(&impl_->mu);
+      impl_->calibration = std::make_shared<const CalibrationTable>(measured->table);
+      impl_->calibration_origin = origin;
+    }
+    impl_->Log(absl::StrCat("calibration: now ", origin));
   }
   return CalibrationOutcome{.table = std::move(measured->table),
                             .frames_rejected = measured->frames_rejected,
@@ -941,6 +1044,10 @@ absl::StatusOr<RecordingStatus> Pipeline::StartRecording(const std::string& path
   if (deflate_level < 0 || deflate_level > 9) {
     return absl::InvalidArgumentError(
         absl::StrCat("deflate_level = ", deflate_level, ": expected 0..9"));
+  }
+  if (max_frames > kMaxRecordingFrames) {
+    return absl::InvalidArgumentError(absl::StrCat("max_frames = ", max_frames, ": expected 0..",
+                                                   kMaxRecordingFrames, " (0 = until stopped)"));
   }
   if (std::filesystem::exists(path)) {
     return absl::AlreadyExistsError(

@@ -82,9 +82,9 @@ absl::StatusOr<std::vector<double>> ResolveSlicePhases(const v1::SliceSpec& spec
   }
   std::vector<double> phases;
   if (spec.time_of_flight_ns_size() > 0) {
-    if (spec.bin_indices_size() > 0) {
+    if (spec.bin_indices_size() > 0 || spec.bins() > 0) {
       return absl::InvalidArgumentError(
-          "slices: give either time_of_flight_ns or bin_indices, not both");
+          "slices: give either time_of_flight_ns or bins (with bin_indices), not both");
     }
     for (double t : spec.time_of_flight_ns()) {
       if (!std::isfinite(t) || t < 0.0) {

@@ -24,6 +24,7 @@ constexpr double kSpeedOfLight = 299792458.0;
 constexpr int kDefaultSlices = 64;
 constexpr int kDefaultQueueFrames = 4;
 constexpr int kMaxQueueFrames = 64;
+constexpr int64_t kMaxQueueBytes = int64_t{256} << 20;
 constexpr int kDefaultPixelBins = 256;
 constexpr int kMaxPixelBins = 65536;
 constexpr absl::Duration kPollInterval = absl::Milliseconds(100);
@@ -112,6 +113,25 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
         ResolveSlicePhases(spec, pipeline.schedule().options().base_frequency_hz, sensor);
     if (!phases.ok()) return phases.status();
     plan.request.slice_phases = *std::move(phases);
+  }
+  // A client that stops reading holds its queue: bound what that can keep alive.
+  int64_t planes = 0;
+  for (v1::Product product : plan.products) {
+    switch (product) {
+      case v1::MOMENT_STATE: planes += 4 * (pipeline.schedule().order() + 1); break;
+      case v1::SLICES:
+      case v1::CUMULATIVE: planes += static_cast<int64_t>(plan.request.slice_phases.size()); break;
+      case v1::DIRECT_INDIRECT: planes += 2; break;
+      default: planes += 1;
+    }
+  }
+  const int64_t frame_bytes = planes * sensor.pixel_count() * 4;
+  if (frame_bytes * plan.queue_frames > kMaxQueueBytes) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "queue_frames = ", plan.queue_frames, ": frames of these products take ",
+        frame_bytes >> 10, " KiB each; at most ", kMaxQueueBytes >> 20,
+        " MiB may wait for one client (queue_frames <= ",
+        std::max<int64_t>(1, kMaxQueueBytes / std::max<int64_t>(1, frame_bytes)), ")"));
   }
   return plan;
 }
@@ -325,13 +345,16 @@ class TransientServer::Service final : public v1::Transient::Service {
                             grpc::ServerWriter<v1::Frame>* writer) override {
     absl::StatusOr<StreamPlan> plan = PlanStream(*request, *pipeline_);
     if (!plan.ok()) return ToGrpcStatus(plan.status());
-    if (pipeline_->state() == SourceState::kEnded) {
-      return ToGrpcStatus(absl::OutOfRangeError(
-          absl::StrCat("the source ", pipeline_->source_uri(), " has ended; no more frames")));
-    }
-    std::shared_ptr<Subscription> subscription =
+    // Subscribed first, then the state: an end announced in between is not missed.
+    absl::StatusOr<std::shared_ptr<Subscription>> subscribed =
         pipeline_->Subscribe(context->peer(), plan->request, plan->queue_frames);
-    absl::Status end = RunStream(context, *plan, *subscription, writer);
+    if (!subscribed.ok()) return ToGrpcStatus(subscribed.status());
+    const std::shared_ptr<Subscription>& subscription = *subscribed;
+    absl::Status end =
+        pipeline_->state() == SourceState::kEnded
+            ? absl::OutOfRangeError(absl::StrCat("the source ", pipeline_->source_uri(),
+                                                 " has ended; no more frames"))
+            : RunStream(context, *plan, *subscription, writer);
     pipeline_->Unsubscribe(subscription);
     return ToGrpcStatus(end);
   }
@@ -365,16 +388,16 @@ class TransientServer::Service final : public v1::Transient::Service {
           absl::StrCat("takes = ", request->takes(), ": expected 1..256 (0 = 20)")));
     }
     const int takes = request->takes() == 0 ? 20 : static_cast<int>(request->takes());
-    std::atomic<bool> cancel{false};
+    std::atomic<bool> gone{false};
     auto on_take = [&](int done, int total) {
       v1::CalibrateProgress progress;
       progress.set_done(static_cast<uint32_t>(done));
       progress.set_total(static_cast<uint32_t>(total));
-      if (context->IsCancelled() || !writer->Write(progress)) cancel = true;
+      if (!writer->Write(progress)) gone = true;
     };
-    absl::StatusOr<CalibrationOutcome> outcome =
-        pipeline_->Calibrate(request->source_uri(), takes, request->output_path(),
-                             request->keep_current(), on_take, &cancel);
+    absl::StatusOr<CalibrationOutcome> outcome = pipeline_->Calibrate(
+        request->source_uri(), takes, request->output_path(), request->keep_current(), on_take,
+        [&] { return gone.load() || context->IsCancelled(); });
     if (!outcome.ok()) return ToGrpcStatus(outcome.status());
     v1::CalibrateProgress last;
     last.set_done(static_cast<uint32_t>(takes));
@@ -392,10 +415,11 @@ class TransientServer::Service final : public v1::Transient::Service {
 
   grpc::Status StartRecording(grpc::ServerContext*, const v1::StartRecordingRequest* request,
                               v1::Recording* out) override {
-    // 0 = the default level 1; above 9 is refused by the pipeline, naming the value.
-    const int deflate = request->deflate_level() == 0
-                            ? 1
-                            : static_cast<int>(std::min(request->deflate_level(), 1000u));
+    if (request->deflate_level() > 9) {
+      return ToGrpcStatus(absl::InvalidArgumentError(
+          absl::StrCat("deflate_level = ", request->deflate_level(), ": expected 1..9 (0 = 1)")));
+    }
+    const int deflate = request->deflate_level() == 0 ? 1 : static_cast<int>(request->deflate_level());
     absl::StatusOr<RecordingStatus> status =
         pipeline_->StartRecording(request->path(), request->max_frames(), deflate);
     if (!status.ok()) return ToGrpcStatus(status.status());

@@ -46,7 +46,8 @@ std::unique_ptr<v1::Transient::Stub> Connect(int port) {
 // A pipeline and its server in this process.
 class Daemon {
  public:
-  explicit Daemon(PipelineOptions options) {
+  // start = false: the server answers, but no frame is ever produced.
+  explicit Daemon(PipelineOptions options, bool start = true) {
     absl::StatusOr<std::unique_ptr<Pipeline>> pipeline = Pipeline::Create(std::move(options));
     EXPECT_THAT(pipeline.status(), IsOk());
     pipeline_ = *std::move(pipeline);
@@ -54,9 +55,10 @@ class Daemon {
         TransientServer::Start(pipeline_.get(), {.listen = "127.0.0.1:0", .version = "test"});
     EXPECT_THAT(server.status(), IsOk());
     server_ = *std::move(server);
-    pipeline_->Start();
+    if (start) pipeline_->Start();
   }
-  explicit Daemon(const std::string& uri) : Daemon(PipelineOptions{.source_uri = uri}) {}
+  explicit Daemon(const std::string& uri, bool start = true)
+      : Daemon(PipelineOptions{.source_uri = uri}, start) {}
   ~Daemon() { Stop(); }
   void Stop() {
     if (pipeline_ != nullptr) pipeline_->Stop();
@@ -235,6 +237,20 @@ TEST(Server, BadStreamRequestsAreInvalidArgumentWhileAnotherStreamGoesOn) {
   v1::StreamRequest rate = Request({v1::RANGE});
   rate.set_max_rate_hz(-1.0);
   expect_invalid(rate, "max_rate_hz");
+  v1::StreamRequest queue = Request({v1::RANGE});
+  queue.set_queue_frames(1000);
+  expect_invalid(queue, "queue_frames = 1000");
+  v1::StreamRequest both = Request({v1::SLICES});
+  both.mutable_slices()->set_bins(8);
+  both.mutable_slices()->add_time_of_flight_ns(3.0);
+  expect_invalid(both, "either time_of_flight_ns or bins");
+  v1::StreamRequest index = Request({v1::SLICES});
+  index.mutable_slices()->set_bins(8);
+  index.mutable_slices()->add_bin_indices(8);
+  expect_invalid(index, "slices.bin_indices: 8 is not below slices.bins = 8");
+  v1::StreamRequest time = Request({v1::SLICES});
+  time.mutable_slices()->add_time_of_flight_ns(-1.0);
+  expect_invalid(time, "slices.time_of_flight_ns = -1");
 
   // The good stream kept receiving through all of that, and goes on.
   const int before = received.load();
@@ -318,9 +334,83 @@ TEST(Server, TwentySubscribersOneNeverReadsTheOthersKeepTheFullRate) {
   EXPECT_GT(stuck_missed, 0u);
   EXPECT_EQ(stats.cycles_dropped(), 0u) << "the pipeline never fell behind";
   // Bounded memory: the stuck client's ~37 frames of 64 slices (200 kB each, 7.5 MB) of these
-  // 3 seconds are not kept.
+  // 3 seconds are not kept. Not under AddressSanitizer, whose quarantine keeps freed memory
+  // resident on purpose (the dropped frames above still show the bound there).
+#ifndef __SANITIZE_ADDRESS__
   EXPECT_LT(resident_after - resident_before, int64_t{4} << 20)
       << "resident memory grew from " << resident_before << " to " << resident_after << " bytes";
+#else
+  (void)resident_before;
+  (void)resident_after;
+#endif
+}
+
+TEST(Server, MemoryLimitsOfStreamsAreRefusedNamingTheLimit) {
+  // At 640x480, 54 slices and their cumulative images take 127 MiB per frame: 4 of them may
+  // not wait for one client, and a third slice list passes the limit for all streams. The
+  // limits apply when subscribing: the pipeline need not run (it would compute 250 MiB).
+  Daemon daemon("sim:mirrors?width=640&height=480", /*start=*/false);
+  auto stub = daemon.Stub();
+  v1::StreamRequest big = Request({v1::SLICES, v1::CUMULATIVE});
+  big.mutable_slices()->set_bins(54);
+  std::vector<v1::Frame> frames;
+  EXPECT_THAT(Receive(*stub, big, 1, &frames),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("queue_frames = 4")));
+  big.set_queue_frames(1);
+  std::vector<std::unique_ptr<grpc::ClientContext>> contexts;
+  std::vector<std::unique_ptr<grpc::ClientReader<v1::Frame>>> streams;
+  for (int i = 0; i < 2; ++i) {
+    if (i == 1) big.mutable_slices()->add_bin_indices(1);  // another list of 54 bins
+    for (int n = 2; i == 1 && n < 54; ++n) big.mutable_slices()->add_bin_indices(n);
+    if (i == 1) big.mutable_slices()->add_bin_indices(0);
+    contexts.push_back(std::make_unique<grpc::ClientContext>());
+    streams.push_back(stub->StreamFrames(contexts.back().get(), big));
+    const absl::Time until = absl::Now() + absl::Seconds(20);
+    while (daemon.Stats().subscribers_size() <= i && absl::Now() < until) {
+      absl::SleepFor(absl::Milliseconds(20));
+    }
+    ASSERT_EQ(daemon.Stats().subscribers_size(), i + 1);
+  }
+  v1::StreamRequest third = Request({v1::SLICES});
+  third.mutable_slices()->set_bins(8);
+  third.set_queue_frames(1);
+  frames.clear();
+  EXPECT_THAT(Receive(*stub, third, 1, &frames),
+              StatusIs(absl::StatusCode::kResourceExhausted, HasSubstr("at most 256 MiB")));
+  // A stream using a list already computed costs nothing more: accepted.
+  big.mutable_slices()->clear_bin_indices();
+  grpc::ClientContext same_context;
+  auto same = stub->StreamFrames(&same_context, big);
+  const absl::Time until = absl::Now() + absl::Seconds(20);
+  while (daemon.Stats().subscribers_size() < 3 && absl::Now() < until) {
+    absl::SleepFor(absl::Milliseconds(20));
+  }
+  EXPECT_EQ(daemon.Stats().subscribers_size(), 3);
+  same_context.TryCancel();
+  (void)same->Finish();
+  for (auto& c : contexts) c->TryCancel();
+  for (auto& s : streams) (void)s->Finish();
+}
+
+TEST(Server, StreamsBeyondTheLimitAreRefusedAsResourceExhausted) {
+  Daemon daemon(kSmallSim, /*start=*/false);
+  auto stub = daemon.Stub();
+  std::vector<std::unique_ptr<grpc::ClientContext>> contexts;
+  std::vector<std::unique_ptr<grpc::ClientReader<v1::Frame>>> streams;
+  for (int i = 0; i < kMaxSubscribers; ++i) {
+    contexts.push_back(std::make_unique<grpc::ClientContext>());
+    streams.push_back(stub->StreamFrames(contexts.back().get(), Request({v1::RANGE})));
+  }
+  const absl::Time until = absl::Now() + absl::Seconds(30);
+  while (daemon.Stats().subscribers_size() < kMaxSubscribers && absl::Now() < until) {
+    absl::SleepFor(absl::Milliseconds(20));
+  }
+  ASSERT_EQ(daemon.Stats().subscribers_size(), kMaxSubscribers);
+  std::vector<v1::Frame> frames;
+  EXPECT_THAT(Receive(*stub, Request({v1::RANGE}), 1, &frames),
+              StatusIs(absl::StatusCode::kResourceExhausted, HasSubstr("at most 64 streams")));
+  for (auto& c : contexts) c->TryCancel();
+  for (auto& s : streams) (void)s->Finish();
 }
 
 TEST(Server, ClientThatDisconnectsMidStreamIsForgottenAndOthersGoOn) {

@@ -46,6 +46,9 @@ struct ReconstructionConfig {
   absl::Status Validate() const;
 };
 
+inline constexpr int kMaxSubscribers = 64;
+inline constexpr int64_t kMaxSliceBytesAllStreams = int64_t{256} << 20;
+
 // Opens a source by URI; tests substitute one that fails on purpose.
 using SourceOpener =
     std::function<absl::StatusOr<std::unique_ptr<CaptureSource>>(const std::string& uri)>;
@@ -164,9 +167,12 @@ class Pipeline {
   std::string calibration_origin() const;
   SourceState state() const;
 
-  // Registers a subscriber; it receives every frame published from now on.
-  std::shared_ptr<Subscription> Subscribe(std::string peer, ProductRequest request,
-                                          int queue_frames);
+  // Registers a subscriber; it receives every frame published from now on. ResourceExhausted
+  // beyond kMaxSubscribers streams, or when the slices of all streams together would exceed
+  // kMaxSliceBytesAllStreams per frame.
+  absl::StatusOr<std::shared_ptr<Subscription>> Subscribe(std::string peer,
+                                                          ProductRequest request,
+                                                          int queue_frames);
   void Unsubscribe(const std::shared_ptr<Subscription>& subscription);
 
   // The latest reconstructed frame (with its solved state), or nullptr before the first.
@@ -178,11 +184,12 @@ class Pipeline {
   absl::Status SetConfig(const ReconstructionConfig& config);
 
   // Measures a calibration from `source_uri` ("" = the calibration scene of a simulated
-  // camera), reporting progress; applies it unless keep_current. Runs on the caller's thread.
+  // camera), reporting progress; applies it unless keep_current. Runs on the caller's thread;
+  // Cancelled once `cancelled` returns true or the pipeline stops.
   absl::StatusOr<CalibrationOutcome> Calibrate(const std::string& source_uri, int takes,
                                                const std::string& output_path, bool keep_current,
                                                const std::function<void(int, int)>& on_take,
-                                               const std::atomic<bool>* cancel);
+                                               const std::function<bool()>& cancelled);
 
   absl::StatusOr<RecordingStatus> StartRecording(const std::string& path, uint64_t max_frames,
                                                  int deflate_level);
