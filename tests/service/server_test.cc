@@ -13,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "tests/service/daemon_fixture.h"
 #include "tests/tools/scratch_directory.h"
 #include "tests/tools/status_matchers.h"
 #include "transient/drivers/capture_file.h"
@@ -35,50 +36,8 @@ using ::transient::tools::testing::StatusIs;
 
 constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 
-std::unique_ptr<v1::Transient::Stub> Connect(int port) {
-  grpc::ChannelArguments args;
-  args.SetMaxReceiveMessageSize(-1);
-  auto channel = grpc::CreateCustomChannel(absl::StrCat("127.0.0.1:", port),
-                                           grpc::InsecureChannelCredentials(), args);
-  return v1::Transient::NewStub(channel);
-}
-
-// A pipeline and its server in this process.
-class Daemon {
- public:
-  // start = false: the server answers, but no frame is ever produced.
-  explicit Daemon(PipelineOptions options, bool start = true) {
-    absl::StatusOr<std::unique_ptr<Pipeline>> pipeline = Pipeline::Create(std::move(options));
-    EXPECT_THAT(pipeline.status(), IsOk());
-    pipeline_ = *std::move(pipeline);
-    absl::StatusOr<std::unique_ptr<TransientServer>> server =
-        TransientServer::Start(pipeline_.get(), {.listen = "127.0.0.1:0", .version = "test"});
-    EXPECT_THAT(server.status(), IsOk());
-    server_ = *std::move(server);
-    if (start) pipeline_->Start();
-  }
-  explicit Daemon(const std::string& uri, bool start = true)
-      : Daemon(PipelineOptions{.source_uri = uri}, start) {}
-  ~Daemon() { Stop(); }
-  void Stop() {
-    if (pipeline_ != nullptr) pipeline_->Stop();
-    if (server_ != nullptr) server_->Shutdown(absl::Seconds(2));
-  }
-
-  Pipeline& pipeline() { return *pipeline_; }
-  std::unique_ptr<v1::Transient::Stub> Stub() { return Connect(server_->port()); }
-
-  v1::Stats Stats() {
-    grpc::ClientContext context;
-    v1::Stats stats;
-    EXPECT_TRUE(Stub()->GetStats(&context, {}, &stats).ok());
-    return stats;
-  }
-
- private:
-  std::unique_ptr<Pipeline> pipeline_;
-  std::unique_ptr<TransientServer> server_;
-};
+using ::transient::service::testing::Connect;
+using ::transient::service::testing::Daemon;
 
 // Reads up to `frames` frames with images; returns the status the stream ended with (OK when
 // it was cut after `frames`).

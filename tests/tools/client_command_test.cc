@@ -31,6 +31,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
+#include "tests/service/daemon_fixture.h"
 #include "tests/tools/image_readers.h"
 #include "tests/tools/scratch_directory.h"
 #include "tests/tools/status_matchers.h"
@@ -213,7 +214,7 @@ TEST(RunClient, NothingListeningIsUnavailableWithinTheConnectTimeout) {
   EXPECT_THAT(summary.status(),
               StatusIs(absl::StatusCode::kUnavailable,
                        HasSubstr("cannot reach transientd at " + args.connect + " within 0.5 s")));
-  EXPECT_LT(seconds, 3.0);
+  EXPECT_LT(seconds, 5.0);
 }
 
 TEST(RunClient, InterruptWhileConnectingIsCancelled) {
@@ -243,51 +244,7 @@ constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";  // 12.5 frames/s
 constexpr int kSimWidth = 32;
 constexpr int kSimHeight = 24;
 
-// transientd in this process: a Pipeline and its TransientServer on a loopback port chosen at
-// run time (as in tests/service/server_test.cc). With start = false the server answers but the
-// source waits for Start(), so that a test can subscribe before the first frame.
-class Daemon {
- public:
-  explicit Daemon(const std::string& uri, bool start = true) {
-    absl::StatusOr<std::unique_ptr<service::Pipeline>> pipeline =
-        service::Pipeline::Create({.source_uri = uri});
-    EXPECT_THAT(pipeline.status(), IsOk());
-    pipeline_ = *std::move(pipeline);
-    absl::StatusOr<std::unique_ptr<service::TransientServer>> server =
-        service::TransientServer::Start(pipeline_.get(),
-                                        {.listen = "127.0.0.1:0", .version = "test"});
-    EXPECT_THAT(server.status(), IsOk());
-    server_ = *std::move(server);
-    if (start) pipeline_->Start();
-  }
-  ~Daemon() {
-    if (pipeline_ != nullptr) pipeline_->Stop();
-    if (server_ != nullptr) server_->Shutdown(absl::Seconds(2));
-  }
-
-  service::Pipeline& pipeline() { return *pipeline_; }
-  std::string address() const { return absl::StrCat("127.0.0.1:", server_->port()); }
-
-  // Waits (at most 10 s) until `condition` holds; false if it never did.
-  bool WaitFor(const std::function<bool()>& condition) {
-    const absl::Time until = absl::Now() + absl::Seconds(10);
-    while (!condition()) {
-      if (absl::Now() >= until) return false;
-      absl::SleepFor(absl::Milliseconds(5));
-    }
-    return true;
-  }
-  bool WaitForFirstFrame() {
-    return WaitFor([this] { return pipeline_->Latest() != nullptr; });
-  }
-  bool WaitForSubscribers(size_t count) {
-    return WaitFor([this, count] { return pipeline_->Stats().subscribers.size() >= count; });
-  }
-
- private:
-  std::unique_ptr<service::Pipeline> pipeline_;
-  std::unique_ptr<service::TransientServer> server_;
-};
+using ::transient::service::testing::Daemon;
 
 std::string Slurp(const std::string& path) {
   std::ifstream stream(path);
@@ -541,9 +498,10 @@ TEST(RunClient, SecondsModeStopsWhenTheTimeIsUp) {
   ASSERT_THAT(summary.status(), IsOk());
   EXPECT_GT(summary->frames, 0);
   EXPECT_LE(summary->frames, 30);  // 12.5 frames/s for a second, with room for a slow start
-  EXPECT_LE(summary->seconds, args.seconds + 0.1);
+  // Functional bounds, generous for a loaded CI machine: the clock, not the frames, ended it.
+  EXPECT_LE(summary->seconds, args.seconds + 1.0);
   EXPECT_GE(elapsed, args.seconds);
-  EXPECT_LT(elapsed, 4.0);
+  EXPECT_LT(elapsed, 10.0);
   EXPECT_FALSE(summary->interrupted);
   EXPECT_TRUE(summary->stream_error.empty());
 }
