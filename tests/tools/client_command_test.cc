@@ -226,7 +226,8 @@ TEST(RunClient, InterruptWhileConnectingIsCancelled) {
   const auto start = std::chrono::steady_clock::now();
   EXPECT_THAT(RunClient(args, {.cancel = &cancel}).status(),
               StatusIs(absl::StatusCode::kCancelled, HasSubstr("connecting")));
-  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 3.0);
+  // Well before the 30 s connect timeout (generous for a loaded CI machine).
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 10.0);
 }
 
 TEST(RunClient, OutputPathThatIsAFileIsRefusedBeforeConnecting) {
