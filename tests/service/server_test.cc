@@ -725,6 +725,44 @@ TEST(Server, RecordingRequestsAreCheckedAndStopWithoutRecordingIsRefused) {
 }
 
 #ifdef TRANSIENTD_BINARY
+// Runs transientd with `args` (stderr captured), returns its exit status and what it printed.
+std::pair<int, std::string> RunTransientd(const std::string& args) {
+  const std::string command = absl::StrCat(TRANSIENTD_BINARY, " ", args, " 2>&1");
+  FILE* pipe = popen(command.c_str(), "r");
+  std::string output;
+  char buffer[4096];
+  while (pipe != nullptr && fgets(buffer, sizeof buffer, pipe) != nullptr) output += buffer;
+  const int status = pipe == nullptr ? -1 : pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
+}
+
+TEST(TransientdBinary, BadOptionsExitTwoNamingTheProblem) {
+  ScratchDirectory dir;
+  const std::string config = dir.File("bad.conf");
+  std::ofstream(config) << "# reconstruction\nthreshold = 0.2\nbias_epsilon = lots\n";
+  const std::string unknown = dir.File("unknown.conf");
+  std::ofstream(unknown) << "colour = red\n";
+  const std::string range = dir.File("range.conf");
+  std::ofstream(range) << "threshold = 3\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--config " + config, "bad.conf:3: bias_epsilon = lots: expected a number"},
+      {"--config " + unknown, "unknown key 'colour'"},
+      {"--config " + range, "threshold = 3"},
+      {"--config " + dir.File("missing.conf"), "missing.conf: cannot be read"},
+      {"--source 'sim:nowhere' --uncalibrated", "nowhere"},
+      {"--source 'replay:" + dir.File("none.h5") + "'", "none.h5"},
+      {"--calibration " + dir.File("none.h5"), "none.h5"},
+      {"--uncalibrated --calibration x.h5", "exclude each other"},
+      {"--uncalibrated --source 'sim:mirrors?width=16&height=12' --listen 256.1.1.1:1",
+       "cannot listen on 256.1.1.1:1"},
+  };
+  for (const auto& [args, message] : cases) {
+    const auto [status, output] = RunTransientd(args);
+    EXPECT_EQ(status, 2) << args << "\n" << output;
+    EXPECT_THAT(output, HasSubstr(message)) << args;
+  }
+}
+
 // The real binary: SIGTERM during a recording closes the file (it reopens with every frame
 // written) and exits 0.
 TEST(TransientdBinary, SigtermDuringARecordingClosesTheFileAndExitsZero) {
