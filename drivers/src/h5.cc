@@ -223,6 +223,24 @@ absl::Status CheckReadableFile(const std::string& path, absl::string_view expect
   return absl::OkStatus();
 }
 
+absl::Status CheckFiltersAvailable(hid_t dataset, absl::string_view where) {
+  Id creation = PropertyList(H5Dget_create_plist(dataset));
+  const int filters = H5Pget_nfilters(creation.get());
+  for (int i = 0; i < filters; ++i) {
+    unsigned flags = 0, config = 0;
+    size_t values = 0;
+    char name[64] = {};
+    const H5Z_filter_t filter =
+        H5Pget_filter2(creation.get(), i, &flags, &values, nullptr, sizeof name, name, &config);
+    if (filter >= 0 && H5Zfilter_avail(filter) <= 0) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          where, ": stored with HDF5 filter ", filter, " (", name,
+          ") which this HDF5 library cannot decode; rewrite it uncompressed or with gzip"));
+    }
+  }
+  return absl::OkStatus();
+}
+
 absl::StatusOr<Id> OpenObject(hid_t file, absl::string_view file_path, const std::string& object,
                               H5I_type_t kind, absl::string_view description) {
   const std::string where = absl::StrCat(file_path, ": ", object);

@@ -27,28 +27,8 @@ constexpr char kZerothAttribute[] = "zeroth";
 constexpr char kBaseFrequencyAttribute[] = "base_frequency_hz";
 constexpr char kFormatAttribute[] = "format";
 
+using h5::CheckFiltersAvailable;
 using h5::OpenObject;
-
-// A dataset compressed with a filter this HDF5 library lacks (h5py's lzf, say) opens fine
-// and fails at the first read; say so up front, by name.
-absl::Status CheckFiltersAvailable(hid_t dataset, const std::string& where) {
-  h5::Id creation = h5::PropertyList(H5Dget_create_plist(dataset));
-  const int filters = H5Pget_nfilters(creation.get());
-  for (int i = 0; i < filters; ++i) {
-    unsigned flags = 0, config = 0;
-    size_t values = 0;
-    char name[64] = {};
-    const H5Z_filter_t filter =
-        H5Pget_filter2(creation.get(), i, &flags, &values, nullptr, sizeof name, name, &config);
-    if (filter < 0) continue;
-    if (H5Zfilter_avail(filter) <= 0) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          where, ": stored with HDF5 filter ", filter, " (", name,
-          ") which this HDF5 library cannot decode; rewrite it uncompressed or with gzip"));
-    }
-  }
-  return absl::OkStatus();
-}
 
 // Opens /moments/real or /moments/imag: float32 or float64, 4 dimensions.
 absl::StatusOr<h5::Id> OpenMomentDataset(hid_t file, const std::string& file_path,

@@ -23,27 +23,8 @@ std::string Where(absl::string_view file, absl::string_view object) {
 
 namespace {
 
+using h5::CheckFiltersAvailable;
 using h5::OpenObject;
-
-// A dataset written with a filter this library lacks (h5py's lzf) opens and fails at the
-// first read; say so up front, by name.
-absl::Status CheckFiltersAvailable(hid_t dataset, absl::string_view where) {
-  h5::Id creation = h5::PropertyList(H5Dget_create_plist(dataset));
-  const int filters = H5Pget_nfilters(creation.get());
-  for (int i = 0; i < filters; ++i) {
-    unsigned flags = 0, config = 0;
-    size_t values = 0;
-    char name[64] = {};
-    const H5Z_filter_t filter =
-        H5Pget_filter2(creation.get(), i, &flags, &values, nullptr, sizeof name, name, &config);
-    if (filter >= 0 && H5Zfilter_avail(filter) <= 0) {
-      return absl::InvalidArgumentError(absl::StrCat(where, ": stored with HDF5 filter ", filter,
-                                                     " (", name,
-                                                     ") which this HDF5 library cannot decode"));
-    }
-  }
-  return absl::OkStatus();
-}
 
 }  // namespace
 

@@ -93,6 +93,10 @@ absl::Status CheckReadableFile(const std::string& path,
 absl::StatusOr<Id> OpenObject(hid_t file, absl::string_view file_path, const std::string& object,
                               H5I_type_t kind, absl::string_view description);
 
+// A dataset stored with a filter this HDF5 library lacks (h5py's lzf, say) opens fine and
+// fails at the first read: InvalidArgument naming `where`, the filter's number and name.
+absl::Status CheckFiltersAvailable(hid_t dataset, absl::string_view where);
+
 // Scalar attributes as written by the tool: variable-length UTF-8 strings, float64, int64.
 absl::Status WriteStringAttribute(hid_t object, const char* name, absl::string_view value);
 absl::Status WriteDoubleAttribute(hid_t object, const char* name, double value);
