@@ -168,13 +168,6 @@ TEST(SeparatedDelays, KeepsTheRangeAndTheSeparation) {
   }
 }
 
-TEST(RandomStream, SameKeySameNumbersOtherKeyOtherNumbers) {
-  RandomStream a({1, 2, 3}), b({1, 2, 3}), c({1, 2, 4});
-  const uint64_t first = a.Next();
-  EXPECT_EQ(first, b.Next());
-  EXPECT_NE(first, c.Next());
-}
-
 TEST(CornerTruth, MomentsMatchTheSimulatorsGroundTruth) {
   // The simulator stores its true moments as float: ~1e-7 relative.
   constexpr double kTolerance = 2e-6;

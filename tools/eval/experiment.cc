@@ -61,8 +61,8 @@ double LowestPeriod(MethodKind method) {
 }
 
 Complex Noise(double sigma, bool real_only, RandomStream& random) {
-  const double re = sigma * random.Gaussian();
-  const double im = sigma * random.Gaussian();  // drawn anyway: streams stay aligned
+  const double re = sigma * random.Normal();
+  const double im = sigma * random.Normal();  // drawn anyway: streams stay aligned
   return {re, real_only ? 0.0 : im};
 }
 

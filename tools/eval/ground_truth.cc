@@ -40,15 +40,6 @@ void Support(const Return& r, double* low, double* high) {
   *high = r.tau_s + 10.0 * r.sigma_s + (r.decay_rate > 0.0 ? 40.0 / r.decay_rate : 0.0);
 }
 
-uint64_t SplitMix64(uint64_t& state) {
-  uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-
-uint64_t Rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
-
 }  // namespace
 
 double ReturnCdf(const Return& r, double t) {
@@ -155,34 +146,6 @@ double ImpulseResponse::FirstReturnTau(double threshold) const {
     if (r.amplitude > 0.0 && r.amplitude >= threshold * largest) return ReturnMode(r);
   }
   return kNaN;
-}
-
-RandomStream::RandomStream(std::initializer_list<uint64_t> key) {
-  uint64_t state = 0x243f6a8885a308d3ULL;  // digits of pi: any fixed constant
-  for (uint64_t k : key) state = SplitMix64(state) ^ k;
-  for (uint64_t& s : s_) s = SplitMix64(state);
-}
-
-uint64_t RandomStream::Next() {
-  const uint64_t result = Rotl(s_[1] * 5, 7) * 9;
-  const uint64_t t = s_[1] << 17;
-  s_[2] ^= s_[0];
-  s_[3] ^= s_[1];
-  s_[1] ^= s_[2];
-  s_[0] ^= s_[3];
-  s_[2] ^= t;
-  s_[3] = Rotl(s_[3], 45);
-  return result;
-}
-
-double RandomStream::Uniform() { return static_cast<double>(Next() >> 11) * 0x1.0p-53; }
-
-double RandomStream::Uniform(double low, double high) { return low + (high - low) * Uniform(); }
-
-double RandomStream::Gaussian() {
-  const double u = 1.0 - Uniform();  // (0, 1]: the logarithm stays finite
-  const double v = Uniform();
-  return std::sqrt(-2.0 * std::log(u)) * std::cos(kTwoPi * v);
 }
 
 std::vector<double> SeparatedDelays(int count, double low, double high, double separation,

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "drivers/src/sim/random.h"  // the simulator's generator (header-only, private)
 #include "transient/drivers/scene_returns.h"
 #include "transient/reconstruct/moments.h"
 
@@ -57,19 +58,9 @@ struct ImpulseResponse {
   double FirstReturnTau(double threshold) const;
 };
 
-// A deterministic, portable random stream (splitmix64 seeding, xoshiro256** output): the same
-// seed gives the same numbers on every platform and standard library.
-class RandomStream {
- public:
-  explicit RandomStream(std::initializer_list<uint64_t> key);
-  uint64_t Next();
-  double Uniform();                         // [0, 1)
-  double Uniform(double low, double high);  // [low, high)
-  double Gaussian();                        // N(0, 1), Box-Muller
-
- private:
-  uint64_t s_[4];
-};
+// The simulator's deterministic random stream (xoshiro256+ seeded by SplitMix64 from a tuple of
+// keys): the same keys give the same numbers on every platform and standard library.
+using RandomStream = sim::Random;
 
 // Parameters of the synthetic ground truths (documented in the report).
 struct SyntheticTruthOptions {
