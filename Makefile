@@ -5,7 +5,7 @@ JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 BENCH_ARGS ?=
 
-.PHONY: deps build test test-release test-sanitize demo demo-files bench clean
+.PHONY: deps build test test-release test-sanitize demo demo-files pictures eval bench clean
 
 deps:
 	bash tools/install_deps.sh
@@ -44,6 +44,14 @@ demo-files: build
 	$(TRANSIENT) reconstruct out/files/moments.h5 out/files/reconstruction.h5 --bins 64
 	/usr/bin/python3 tools/scripts/compare_with_truth.py out/files/capture.h5 out/files/reconstruction.h5
 	@echo "demo-files: wrote out/files/{capture,calibration,moments,reconstruction}.h5 (transient info FILE describes each)"
+
+# Every picture kind of `transient view` for the mirrors, corner and video scenes into out/view/.
+pictures: build
+	bash tools/scripts/view_scenes.sh $(BUILD_DIR) out/view
+
+# The quality benchmark against related methods (thesis fig. 8.12, 8.13) into out/eval/.
+eval: build
+	$(TRANSIENT) eval --out out/eval
 
 bench: deps
 	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_BENCHMARKS=ON $(CMAKE_FLAGS)

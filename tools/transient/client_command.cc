@@ -58,8 +58,6 @@ constexpr double kColourScalePercentile = 99.5;
 constexpr absl::Duration kWatchPeriod = absl::Milliseconds(20);
 // GetInfo answers from memory; anything slower than this is a daemon in trouble.
 constexpr absl::Duration kInfoTimeout = absl::Seconds(10);
-// Images wider or taller than this are not from a sensor: the frame is counted as corrupt.
-constexpr uint32_t kMaxImageSide = 1 << 15;
 
 std::optional<v1::Product> ProductFromName(const std::string& name) {
   for (const ProductName& entry : kProducts) {
@@ -102,86 +100,6 @@ bool Contains(const std::vector<v1::Product>& products, v1::Product product) {
 bool Cancelled(const CommandHooks& hooks) {
   return hooks.cancel != nullptr && hooks.cancel->load();
 }
-
-// An image of a frame, decoded to floats in its product's SI unit.
-struct DecodedImage {
-  std::string name;
-  v1::Product product = v1::PRODUCT_UNSPECIFIED;
-  ImageGeometry geometry;
-  double time_of_flight_ns = 0.0;
-  std::vector<float> values;
-};
-
-absl::StatusOr<std::vector<DecodedImage>> DecodeFrame(const v1::Frame& frame) {
-  std::vector<DecodedImage> images;
-  images.reserve(static_cast<size_t>(frame.images_size()));
-  for (const v1::Image& image : frame.images()) {
-    if (image.width() == 0 || image.height() == 0 || image.width() > kMaxImageSide ||
-        image.height() > kMaxImageSide) {
-      return absl::DataLossError(absl::StrCat("image '", image.name(), "' of frame ",
-                                              frame.sequence(), " is ", image.width(), "x",
-                                              image.height(), " px"));
-    }
-    absl::StatusOr<std::vector<float>> values = service::DecodeImage(image);
-    if (!values.ok()) return values.status();
-    const ImageGeometry geometry{static_cast<int>(image.width()),
-                                 static_cast<int>(image.height())};
-    if (static_cast<int64_t>(values->size()) != geometry.pixel_count()) {
-      return absl::DataLossError(absl::StrCat("image '", image.name(), "' of frame ",
-                                              frame.sequence(), " decodes to ", values->size(),
-                                              " values for ", image.width(), "x",
-                                              image.height(), " px"));
-    }
-    images.push_back({.name = image.name(),
-                      .product = image.product(),
-                      .geometry = geometry,
-                      .time_of_flight_ns = image.time_of_flight_ns(),
-                      .values = *std::move(values)});
-  }
-  return images;
-}
-
-// Cancels the stream from a second thread when the user interrupts or the time is up: a
-// blocking Read() only returns when a frame arrives or the call ends.
-class StreamWatcher {
- public:
-  enum class Reason { kNone, kInterrupted, kTimeUp };
-
-  StreamWatcher(grpc::ClientContext* context, const std::atomic<bool>* cancel,
-                absl::Time deadline)
-      : thread_([this, context, cancel, deadline] { Watch(context, cancel, deadline); }) {}
-  StreamWatcher(const StreamWatcher&) = delete;
-  StreamWatcher& operator=(const StreamWatcher&) = delete;
-  ~StreamWatcher() {
-    stop_.Notify();
-    thread_.join();
-  }
-
-  Reason reason() const { return reason_.load(); }
-
- private:
-  void Watch(grpc::ClientContext* context, const std::atomic<bool>* cancel,
-             absl::Time deadline) {
-    while (!stop_.WaitForNotificationWithTimeout(
-        std::min(kWatchPeriod, std::max(deadline - absl::Now(), absl::ZeroDuration())))) {
-      Reason reason = Reason::kNone;
-      if (cancel != nullptr && cancel->load()) {
-        reason = Reason::kInterrupted;
-      } else if (absl::Now() >= deadline) {
-        reason = Reason::kTimeUp;
-      }
-      if (reason != Reason::kNone) {
-        reason_.store(reason);
-        context->TryCancel();
-        return;
-      }
-    }
-  }
-
-  absl::Notification stop_;
-  std::atomic<Reason> reason_{Reason::kNone};
-  std::thread thread_;  // last: it starts once the members it uses exist
-};
 
 absl::Status Prefixed(absl::string_view prefix, const absl::Status& status) {
   return absl::Status(status.code(), absl::StrCat(prefix, status.message()));
@@ -409,6 +327,94 @@ double PercentileOf(std::span<T> values, double percent) {
 
 }  // namespace
 
+absl::StatusOr<std::unique_ptr<v1::Transient::Stub>> ConnectToTransientd(
+    const std::string& address, double timeout_s, const std::atomic<bool>* cancel) {
+  grpc::ChannelArguments channel_arguments;
+  channel_arguments.SetMaxReceiveMessageSize(-1);  // a frame of 64 full-sensor slices is large
+  std::shared_ptr<grpc::Channel> channel = grpc::CreateCustomChannel(
+      address, grpc::InsecureChannelCredentials(), channel_arguments);
+  const absl::Time connect_deadline = absl::Now() + absl::Seconds(timeout_s);
+  while (!channel->WaitForConnected(
+      absl::ToChronoTime(std::min(connect_deadline, absl::Now() + absl::Milliseconds(100))))) {
+    if (cancel != nullptr && cancel->load()) {
+      return absl::CancelledError("interrupted while connecting");
+    }
+    if (absl::Now() >= connect_deadline) {
+      return absl::UnavailableError(
+          absl::StrFormat("cannot reach transientd at %s within %g s", address, timeout_s));
+    }
+  }
+  return v1::Transient::NewStub(channel);
+}
+
+absl::StatusOr<v1::Info> GetTransientdInfo(v1::Transient::Stub& stub,
+                                           const std::string& address) {
+  v1::Info info;
+  grpc::ClientContext context;
+  context.set_deadline(absl::ToChronoTime(absl::Now() + kInfoTimeout));
+  if (grpc::Status status = stub.GetInfo(&context, v1::GetInfoRequest(), &info); !status.ok()) {
+    return Prefixed(absl::StrCat("GetInfo from transientd at ", address, ": "),
+                    service::FromGrpcStatus(status));
+  }
+  return info;
+}
+
+absl::StatusOr<std::vector<DecodedImage>> DecodeFrame(const v1::Frame& frame) {
+  std::vector<DecodedImage> images;
+  images.reserve(static_cast<size_t>(frame.images_size()));
+  for (const v1::Image& image : frame.images()) {
+    if (image.width() == 0 || image.height() == 0 || image.width() > kMaxImageSide ||
+        image.height() > kMaxImageSide) {
+      return absl::DataLossError(absl::StrCat("image '", image.name(), "' of frame ",
+                                              frame.sequence(), " is ", image.width(), "x",
+                                              image.height(), " px"));
+    }
+    absl::StatusOr<std::vector<float>> values = service::DecodeImage(image);
+    if (!values.ok()) return values.status();
+    const ImageGeometry geometry{static_cast<int>(image.width()),
+                                 static_cast<int>(image.height())};
+    if (static_cast<int64_t>(values->size()) != geometry.pixel_count()) {
+      return absl::DataLossError(absl::StrCat("image '", image.name(), "' of frame ",
+                                              frame.sequence(), " decodes to ", values->size(),
+                                              " values for ", image.width(), "x",
+                                              image.height(), " px"));
+    }
+    images.push_back({.name = image.name(),
+                      .product = image.product(),
+                      .geometry = geometry,
+                      .time_of_flight_ns = image.time_of_flight_ns(),
+                      .values = *std::move(values)});
+  }
+  return images;
+}
+
+StreamWatcher::StreamWatcher(grpc::ClientContext* context, const std::atomic<bool>* cancel,
+                             absl::Time deadline)
+    : thread_([this, context, cancel, deadline] { Watch(context, cancel, deadline); }) {}
+
+StreamWatcher::~StreamWatcher() {
+  stop_.Notify();
+  thread_.join();
+}
+
+void StreamWatcher::Watch(grpc::ClientContext* context, const std::atomic<bool>* cancel,
+                          absl::Time deadline) {
+  while (!stop_.WaitForNotificationWithTimeout(
+      std::min(kWatchPeriod, std::max(deadline - absl::Now(), absl::ZeroDuration())))) {
+    Reason reason = Reason::kNone;
+    if (cancel != nullptr && cancel->load()) {
+      reason = Reason::kInterrupted;
+    } else if (absl::Now() >= deadline) {
+      reason = Reason::kTimeUp;
+    }
+    if (reason != Reason::kNone) {
+      reason_.store(reason);
+      context->TryCancel();
+      return;
+    }
+  }
+}
+
 double Percentile(std::span<double> values, double percent) {
   return PercentileOf(values, percent);
 }
@@ -520,31 +526,12 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   summary.address = args.connect;
   summary.output_dir = args.output_dir;
 
-  grpc::ChannelArguments channel_arguments;
-  channel_arguments.SetMaxReceiveMessageSize(-1);  // a frame of 64 full-sensor slices is large
-  std::shared_ptr<grpc::Channel> channel = grpc::CreateCustomChannel(
-      args.connect, grpc::InsecureChannelCredentials(), channel_arguments);
-  const absl::Time connect_deadline = absl::Now() + absl::Seconds(args.connect_timeout_s);
-  while (!channel->WaitForConnected(
-      absl::ToChronoTime(std::min(connect_deadline, absl::Now() + absl::Milliseconds(100))))) {
-    if (Cancelled(hooks)) return absl::CancelledError("interrupted while connecting");
-    if (absl::Now() >= connect_deadline) {
-      return absl::UnavailableError(absl::StrFormat("cannot reach transientd at %s within %g s",
-                                                    args.connect, args.connect_timeout_s));
-    }
-  }
-  std::unique_ptr<v1::Transient::Stub> stub = v1::Transient::NewStub(channel);
-
-  v1::Info info;
-  {
-    grpc::ClientContext context;
-    context.set_deadline(absl::ToChronoTime(absl::Now() + kInfoTimeout));
-    if (grpc::Status status = stub->GetInfo(&context, v1::GetInfoRequest(), &info);
-        !status.ok()) {
-      return Prefixed(absl::StrCat("GetInfo from transientd at ", args.connect, ": "),
-                      service::FromGrpcStatus(status));
-    }
-  }
+  absl::StatusOr<std::unique_ptr<v1::Transient::Stub>> stub =
+      ConnectToTransientd(args.connect, args.connect_timeout_s, hooks.cancel);
+  if (!stub.ok()) return stub.status();
+  absl::StatusOr<v1::Info> got_info = GetTransientdInfo(**stub, args.connect);
+  if (!got_info.ok()) return got_info.status();
+  const v1::Info& info = *got_info;
   summary.source_uri = info.source_uri();
   summary.version = info.version();
   summary.camera_width = static_cast<int>(std::min<uint32_t>(info.camera().width(), INT32_MAX));
@@ -593,7 +580,7 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   {
     grpc::ClientContext context;
     std::unique_ptr<grpc::ClientReader<v1::Frame>> reader =
-        stub->StreamFrames(&context, request);
+        (*stub)->StreamFrames(&context, request);
     StreamWatcher watcher(&context, hooks.cancel,
                           args.seconds > 0.0 ? opened + absl::Seconds(args.seconds)
                                              : absl::InfiniteFuture());

@@ -2,14 +2,24 @@
 // rate and latency, and writes the products of the last frame as images plus a JSON summary.
 #pragma once
 
+#include <grpcpp/client_context.h>
+
+#include <atomic>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/synchronization/notification.h"
+#include "absl/time/time.h"
 #include "tools/transient/capture_commands.h"
+#include "transient/reconstruct/image.h"
+#include "transient/v1/transient.grpc.pb.h"
+#include "transient/v1/transient.pb.h"
 
 namespace transient::tools {
 
@@ -114,5 +124,55 @@ std::string FormatClientSummary(const ClientSummary& summary);
 // values. Reorders `values`; NaN inside is not allowed (asserted in debug builds).
 double Percentile(std::span<double> values, double percent);
 double Percentile(std::span<float> values, double percent);
+
+// ---- The daemon connection, shared by `transient client` and `transient view daemon:ADDR` ----
+
+// Images wider or taller than this are not from a sensor: DecodeFrame refuses the frame.
+inline constexpr uint32_t kMaxImageSide = 1 << 15;
+
+// Opens a channel to transientd at `address` (host:port or unix:PATH; no limit on the size of
+// a received message) and waits until it connects. Unavailable "cannot reach transientd at
+// ADDR within T s" when it does not within `timeout_s`; Cancelled when *cancel turns true.
+[[nodiscard]] absl::StatusOr<std::unique_ptr<v1::Transient::Stub>> ConnectToTransientd(
+    const std::string& address, double timeout_s, const std::atomic<bool>* cancel);
+
+// GetInfo with a deadline; a failure is prefixed "GetInfo from transientd at ADDR: ".
+[[nodiscard]] absl::StatusOr<v1::Info> GetTransientdInfo(v1::Transient::Stub& stub,
+                                                         const std::string& address);
+
+// An image of a frame, decoded to floats in its product's SI unit (flags: 0..255).
+struct DecodedImage {
+  std::string name;
+  v1::Product product = v1::PRODUCT_UNSPECIFIED;
+  ImageGeometry geometry;
+  double time_of_flight_ns = 0.0;
+  std::vector<float> values;
+};
+
+// Every image of `frame` decoded (service::DecodeImage). DataLoss naming the image and the
+// frame when one is empty, larger than kMaxImageSide, or does not decode to width x height.
+[[nodiscard]] absl::StatusOr<std::vector<DecodedImage>> DecodeFrame(const v1::Frame& frame);
+
+// Cancels a stream from a second thread when *cancel turns true or `deadline` passes: a
+// blocking Read() only returns when a frame arrives or the call ends.
+class StreamWatcher {
+ public:
+  enum class Reason { kNone, kInterrupted, kTimeUp };
+
+  StreamWatcher(grpc::ClientContext* context, const std::atomic<bool>* cancel,
+                absl::Time deadline);
+  StreamWatcher(const StreamWatcher&) = delete;
+  StreamWatcher& operator=(const StreamWatcher&) = delete;
+  ~StreamWatcher();
+
+  Reason reason() const { return reason_.load(); }
+
+ private:
+  void Watch(grpc::ClientContext* context, const std::atomic<bool>* cancel, absl::Time deadline);
+
+  absl::Notification stop_;
+  std::atomic<Reason> reason_{Reason::kNone};
+  std::thread thread_;  // last: it starts once the members it uses exist
+};
 
 }  // namespace transient::tools

@@ -14,15 +14,19 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/ascii.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "transient/drivers/simulator.h"
+#include "tools/eval/eval_command.h"
 #include "tools/transient/bench_command.h"
 #include "tools/transient/capture_commands.h"
 #include "tools/transient/client_command.h"
+#include "tools/transient/daemon_frame_source.h"
 #include "tools/transient/exit_status.h"
 #include "tools/transient/progress_bar.h"
 #include "tools/transient/reconstruct_command.h"
+#include "tools/transient/view_command.h"
 
 namespace {
 
@@ -452,6 +456,185 @@ int RunClientCommand(ClientCommandLine& line) {
       transient::tools::FormatClientSummary);
 }
 
+// The view subcommand's options as typed; turned into ViewArgs after parsing.
+struct ViewCommandLine {
+  transient::tools::ViewArgs args;
+  std::vector<std::string> pixels;
+  std::string ply_format = "binary";
+  std::string frames;
+  CLI::Option* frames_option = nullptr;
+  double scale = 0.0;
+  CLI::Option* scale_option = nullptr;
+  double bounds_r = 0.5;
+  bool no_bounds = false;
+  bool no_colour = false;
+};
+
+CLI::App* AddViewCommand(CLI::App& app, ViewCommandLine& line) {
+  CLI::App* command = app.add_subcommand(
+      "view",
+      "Draw the pictures of a reconstruction file (or of a moment or capture file, "
+      "reconstructed first, or of frames received from a running transientd, INPUT = "
+      "daemon:ADDR): transient slices and their video, cumulative frames, streak images, range, "
+      "amplitude, flags, direct/indirect light, point clouds and per-pixel plots (thesis §8.5). "
+      "Without a picture option, draws all of them.");
+  command->footer(
+      "Files written into --out DIR (NNN: frame index in the input, BBB: bin):\n"
+      "  light.mp4                          H.264 video of the density slices of every frame\n"
+      "  frame_NNN/slices/slice_BBB.png     MESE density at one time of flight\n"
+      "  frame_NNN/cumulative/slice_BBB.png light arrived by that time of flight\n"
+      "  frame_NNN/streak_yYYY.png          density of scanline Y: x across, tau down\n"
+      "  frame_NNN/{range,amplitude,flags,direct,indirect,range_pisarenko}.png\n"
+      "  frame_NNN/points.ply               range * ray of every pixel with a range (metres,\n"
+      "                                     x right, y down, z forward), coloured by c0\n"
+      "  frame_NNN/pixel_xXXX_yYYY.png      density, bounds band, Pisarenko returns, cumulative\n"
+      "Colour scales are fixed for the whole run: density, cumulative, c0 and direct/indirect\n"
+      "from 0 to their 99.5th percentile over every frame drawn (density: all bins, or --scale),\n"
+      "range from its 0.5th to its 99.5th percentile; grey = no value.\n"
+      "A daemon input (daemon:HOST:PORT or daemon:unix:PATH) receives --frames N frames (default\n"
+      "4) of the whole sensor with --bins slices, then draws them as frame_000.. ; transientd\n"
+      "sends no Pisarenko returns or bounds, so the per-pixel plots lack them. A stream that\n"
+      "ends early (a replay's end) draws the frames received.\n"
+      "Exit codes: 0 done, 1 failure outside the input (daemon unreachable), 2 bad options or\n"
+      "input, 130 interrupted.");
+  transient::tools::ViewArgs& args = line.args;
+  command
+      ->add_option("input", args.input_path,
+                   "reconstruction (transient-reconstruction 1), moment or capture file, or "
+                   "daemon:ADDR for a running transientd")
+      ->required();
+  command->add_option("--out", args.output_dir, "directory to write into (created if missing)")
+      ->required();
+  command->add_flag("--slices", args.slices, "density slices as PNG");
+  command->add_flag("--cumulative", args.cumulative, "cumulative frames as PNG");
+  command->add_flag("--video", args.video, "light.mp4: the density slices of every frame");
+  command->add_flag("--images", args.images,
+                    "range, amplitude (c0), flags, direct and indirect images");
+  command->add_flag("--point-cloud", args.point_cloud,
+                    "points.ply from range and the intrinsics of --camera");
+  command->add_option("--streak", args.streak_rows, "streak image of scanline Y (repeatable)");
+  command->add_option("--pixel", line.pixels, "plot of pixel X,Y (repeatable)");
+  command
+      ->add_option("--tau", args.tau_ns,
+                   "times of flight in ns for slices, cumulative frames and video (nearest bin; "
+                   "comma-separated or repeated; default: every bin)")
+      ->delimiter(',');
+  line.scale_option = command->add_option(
+      "--scale", line.scale,
+      "upper end of the density colour scale, sensor units/rad (default: 99.5th percentile)");
+  line.frames_option = command->add_option(
+      "--frames", line.frames,
+      "frames A:B of the input file, a Python slice (default: all); daemon input: the number of "
+      "frames to receive (default 4)");
+  command->add_option("--camera", args.camera_path,
+                      "capture file whose /camera intrinsics (fx, fy, cx, cy) place the points");
+  command->add_option("--ply-format", line.ply_format, "ascii or binary")->capture_default_str();
+  command->add_flag("--no-colour", line.no_colour, "points without colour");
+  command->add_option("--fps", args.fps, "video frames per second")->capture_default_str();
+  command
+      ->add_option("--bins", args.bins,
+                   "moment or capture input: phases per period to reconstruct (8..65536); "
+                   "daemon input: slices per period to receive (8..1024)")
+      ->capture_default_str();
+  command
+      ->add_option("--bounds-r", line.bounds_r,
+                   "moment or capture input: r of the bounds band (0 < R < 1)")
+      ->capture_default_str();
+  command->add_flag("--no-bounds", line.no_bounds,
+                    "moment or capture input: do not compute the bounds");
+  command->add_option("--calibration", args.calibration_path,
+                      "capture input: calibration file (default: the embedded one)");
+  command
+      ->add_option("--connect-timeout", args.connect_timeout_s,
+                   "daemon input: seconds to wait for transientd to accept the connection")
+      ->capture_default_str();
+  return command;
+}
+
+int RunViewCommand(ViewCommandLine& line) {
+  transient::tools::ViewArgs& args = line.args;
+  for (const std::string& text : line.pixels) {
+    absl::StatusOr<transient::tools::PixelPosition> pixel =
+        transient::tools::ParsePixelPosition(text);
+    if (!pixel.ok()) {
+      std::cerr << ErrorLine(pixel.status()) << "\n";
+      return kExitBadInput;
+    }
+    args.pixels.push_back(*pixel);
+  }
+  absl::StatusOr<transient::tools::PlyFormat> ply = transient::tools::ParsePlyFormat(line.ply_format);
+  if (!ply.ok()) {
+    std::cerr << ErrorLine(ply.status()) << "\n";
+    return kExitBadInput;
+  }
+  args.ply_format = *ply;
+  args.ply_colour = !line.no_colour;
+  if (line.scale_option->count() > 0) args.density_scale = line.scale;
+  args.bounds_r = line.no_bounds ? std::nullopt : std::optional<double>(line.bounds_r);
+  if (line.frames_option->count() > 0 && transient::tools::IsDaemonInput(args.input_path)) {
+    if (!absl::SimpleAtoi(line.frames, &args.daemon_frames)) {
+      std::cerr << ErrorLine(absl::InvalidArgumentError(absl::StrCat(
+                       "--frames = '", line.frames,
+                       "': a daemon input takes the number of frames to receive")))
+                << "\n";
+      return kExitBadInput;
+    }
+  } else if (line.frames_option->count() > 0) {
+    absl::StatusOr<transient::tools::FrameSlice> frames =
+        transient::tools::ParseFrameSlice(line.frames);
+    if (!frames.ok()) {
+      std::cerr << ErrorLine(frames.status()) << "\n";
+      return kExitBadInput;
+    }
+    args.frames = *frames;
+  }
+  if (absl::Status status = args.Validate(); !status.ok()) {
+    std::cerr << ErrorLine(status) << "\n";
+    return kExitBadInput;
+  }
+  return RunWithProgress<transient::tools::ViewSummary>(
+      [&](const transient::tools::CommandHooks& hooks) {
+        return transient::tools::RunView(args, hooks);
+      },
+      transient::tools::FormatViewSummary);
+}
+
+CLI::App* AddEvalCommand(CLI::App& app, transient::eval::EvalArgs& args) {
+  CLI::App* command = app.add_subcommand(
+      "eval",
+      "Quality benchmark (thesis fig. 8.12, 8.13): MESE and Pisarenko against single-frequency "
+      "phase, Godbaz et al., SPUMIC and SRA on synthetic responses and the simulated corner; "
+      "writes eval.md, eval.json and SVG plots.");
+  command->add_option("--out", args.output_dir, "directory to write into (created if missing)")
+      ->capture_default_str();
+  command->add_option("--trials", args.trials, "trials per configuration (> 0)")
+      ->capture_default_str();
+  command->add_option("--seed", args.seed, "seed of the ground truths and the noise")
+      ->capture_default_str();
+  return command;
+}
+
+int RunEvalCommand(const transient::eval::EvalArgs& args) {
+  if (absl::Status status = args.Validate(); !status.ok()) {
+    std::cerr << ErrorLine(status) << "\n";
+    return kExitBadInput;
+  }
+  std::signal(SIGINT, OnInterrupt);
+  std::signal(SIGTERM, OnInterrupt);
+  transient::eval::ExperimentHooks hooks{
+      .on_progress = nullptr,
+      .on_stage = [](const std::string& line) { std::cerr << "transient eval: " << line << "\n"; },
+      .cancel = &interrupted,
+  };
+  absl::StatusOr<transient::eval::EvalSummary> summary = transient::eval::RunEval(args, hooks);
+  if (!summary.ok()) {
+    std::cerr << ErrorLine(summary.status()) << "\n";
+    return ExitCodeFor(summary.status());
+  }
+  std::cout << transient::eval::FormatEvalSummary(*summary) << "\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -475,6 +658,10 @@ int main(int argc, char** argv) {
   CLI::App* info = AddInfoCommand(app, info_path);
   ClientCommandLine client_line;
   CLI::App* client = AddClientCommand(app, client_line);
+  ViewCommandLine view_line;
+  CLI::App* view = AddViewCommand(app, view_line);
+  transient::eval::EvalArgs eval_args;
+  CLI::App* eval = AddEvalCommand(app, eval_args);
 
   try {
     app.parse(argc, argv);
@@ -511,5 +698,7 @@ int main(int argc, char** argv) {
   }
   if (info->parsed()) return RunInfoCommand(info_path);
   if (client->parsed()) return RunClientCommand(client_line);
+  if (view->parsed()) return RunViewCommand(view_line);
+  if (eval->parsed()) return RunEvalCommand(eval_args);
   return kExitBadInput;  // unreachable: exactly one subcommand is required
 }

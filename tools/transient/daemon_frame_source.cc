@@ -1,0 +1,372 @@
+// Receives transientd frames (StreamFrames) and turns their images into TransientFrames.
+#include "tools/transient/daemon_frame_source.h"
+
+#include <grpcpp/grpcpp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <utility>
+
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/strip.h"
+#include "absl/time/clock.h"
+#include "tools/transient/client_command.h"
+#include "tools/transient/reconstruction_reader.h"
+#include "transient/service/grpc_status.h"
+#include "transient/service/products.h"
+#include "transient/v1/transient.grpc.pb.h"
+#include "transient/v1/transient.pb.h"
+
+namespace transient::tools {
+namespace {
+
+// GetConfig answers from memory, as GetInfo does.
+constexpr absl::Duration kConfigTimeout = absl::Seconds(10);
+
+// The products asked of the daemon and the planes of a TransientFrame each one fills.
+struct WireProduct {
+  v1::Product product;
+  const char* name;  // as in Image.name (and --products of `transient client`)
+  std::vector<Product> planes;
+};
+
+const std::vector<WireProduct>& WireProducts() {
+  static const std::vector<WireProduct>* const products = new std::vector<WireProduct>{
+      {v1::RANGE, "range", {Product::kRange}},
+      {v1::C0, "c0", {Product::kZerothMoment}},
+      {v1::FLAGS, "flags", {Product::kFlags}},
+      {v1::SLICES, "slices", {Product::kDensity}},
+      {v1::CUMULATIVE, "cumulative", {Product::kCumulative}},
+      {v1::DIRECT_INDIRECT,
+       "direct_indirect",
+       {Product::kPisarenkoDirect, Product::kPisarenkoIndirect}},
+  };
+  return *products;
+}
+
+bool Has(ProductSet set, Product product) { return set[static_cast<int>(product)]; }
+
+// The float planes of a TransientFrame that a daemon fills (flags are bytes, apart).
+std::vector<float>* FloatPlanes(TransientFrame* frame, Product product) {
+  switch (product) {
+    case Product::kRange:
+      return &frame->range_m;
+    case Product::kZerothMoment:
+      return &frame->c0;
+    case Product::kDensity:
+      return &frame->density;
+    case Product::kCumulative:
+      return &frame->cumulative;
+    case Product::kPisarenkoDirect:
+      return &frame->pisarenko_direct;
+    case Product::kPisarenkoIndirect:
+      return &frame->pisarenko_indirect;
+    default:
+      return nullptr;
+  }
+}
+
+// Copies `values` into plane `plane` of `planes` (bins planes), once per plane.
+absl::Status PutPlane(const DecodedImage& image, int bins, int64_t pixels, absl::string_view prefix,
+                      std::vector<float>* planes, std::vector<bool>* seen) {
+  absl::string_view index_text = image.name;
+  int plane = -1;
+  if (!absl::ConsumePrefix(&index_text, prefix) || !absl::SimpleAtoi(index_text, &plane) ||
+      plane < 0 || plane >= bins || (*seen)[plane]) {
+    return absl::DataLossError(absl::StrCat("image '", image.name, "': expected ", prefix,
+                                            "N once for each N in 0..", bins - 1));
+  }
+  (*seen)[plane] = true;
+  planes->resize(static_cast<size_t>(bins * pixels));
+  std::copy(image.values.begin(), image.values.end(), planes->begin() + plane * pixels);
+  return absl::OkStatus();
+}
+
+// The planes of `wanted` from the images of one frame; DataLoss naming what does not fit.
+absl::Status FillFrame(const v1::Frame& wire, ProductSet wanted, TransientFrame* frame) {
+  absl::StatusOr<std::vector<DecodedImage>> images = DecodeFrame(wire);
+  if (!images.ok()) return images.status();
+  const int64_t pixels = frame->geometry.pixel_count();
+  const int bins = frame->bins();
+  std::vector<bool> density_seen(bins, false), cumulative_seen(bins, false);
+  for (const DecodedImage& image : *images) {
+    if (image.geometry != frame->geometry) {
+      return absl::DataLossError(absl::StrCat(
+          "image '", image.name, "' of frame ", wire.sequence(), " is ", image.geometry.width, "x",
+          image.geometry.height, " px, expected the sensor's ", frame->geometry.width, "x",
+          frame->geometry.height, " px"));
+    }
+    absl::Status status;
+    switch (image.product) {
+      case v1::RANGE:
+        frame->range_m = image.values;
+        break;
+      case v1::C0:
+        frame->c0 = image.values;
+        break;
+      case v1::FLAGS:
+        frame->flags.resize(static_cast<size_t>(pixels));
+        for (int64_t p = 0; p < pixels; ++p) {
+          const float value = image.values[p];
+          if (!(value >= 0.0f && value <= 255.0f && value == std::floor(value))) {
+            return absl::DataLossError(absl::StrCat("image 'flags' of frame ", wire.sequence(),
+                                                    ": value ", value, " is not a byte"));
+          }
+          frame->flags[p] = static_cast<uint8_t>(value);
+        }
+        break;
+      case v1::SLICES:
+        status = PutPlane(image, bins, pixels, "slices/", &frame->density, &density_seen);
+        break;
+      case v1::CUMULATIVE:
+        status = PutPlane(image, bins, pixels, "cumulative/", &frame->cumulative, &cumulative_seen);
+        break;
+      case v1::DIRECT_INDIRECT:
+        if (image.name == "direct") {
+          frame->pisarenko_direct = image.values;
+        } else if (image.name == "indirect") {
+          frame->pisarenko_indirect = image.values;
+        }
+        break;
+      default:
+        break;  // not asked for: ignored
+    }
+    if (!status.ok()) return status;
+  }
+  const bool all_density = std::all_of(density_seen.begin(), density_seen.end(), std::identity());
+  const bool all_cumulative =
+      std::all_of(cumulative_seen.begin(), cumulative_seen.end(), std::identity());
+  std::vector<std::string> missing;
+  for (const WireProduct& product : WireProducts()) {
+    for (Product plane : product.planes) {
+      if (!Has(wanted, plane)) continue;
+      const bool present = plane == Product::kFlags     ? !frame->flags.empty()
+                           : plane == Product::kDensity ? !frame->density.empty() && all_density
+                           : plane == Product::kCumulative
+                               ? !frame->cumulative.empty() && all_cumulative
+                               : !FloatPlanes(frame, plane)->empty();
+      if (!present) {
+        missing.push_back(product.name);
+        break;  // direct_indirect once, not once per plane
+      }
+    }
+  }
+  if (!missing.empty()) {
+    return absl::DataLossError(
+        absl::StrCat("frame ", wire.sequence(), " lacks ", absl::StrJoin(missing, ", ")));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status Prefixed(absl::string_view prefix, const absl::Status& status) {
+  return absl::Status(status.code(), absl::StrCat(prefix, status.message()));
+}
+
+}  // namespace
+
+bool IsDaemonInput(absl::string_view input) { return absl::StartsWith(input, kDaemonInputPrefix); }
+
+absl::Status DaemonSourceOptions::Validate() const {
+  if (address.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat("input '", kDaemonInputPrefix, "': expected ",
+                                                   kDaemonInputPrefix, "HOST:PORT or ",
+                                                   kDaemonInputPrefix, "unix:PATH"));
+  }
+  if (frames < 1 || frames > kMaxDaemonFrames) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--frames = ", frames, ": a daemon input takes the number of frames to receive, 1..",
+        kMaxDaemonFrames));
+  }
+  if (bins < 1 || bins > service::kMaxSlices) {
+    return absl::InvalidArgumentError(absl::StrCat("--bins = ", bins, ": transientd sends 1..",
+                                                   service::kMaxSlices, " slices a frame"));
+  }
+  if (!(connect_timeout_s > 0.0) || !std::isfinite(connect_timeout_s)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--connect-timeout = ", connect_timeout_s, ": expected > 0 seconds"));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
+    const DaemonSourceOptions& options, const std::atomic<bool>* cancel) {
+  if (absl::Status status = options.Validate(); !status.ok()) return status;
+  const std::string& address = options.address;
+  absl::StatusOr<std::unique_ptr<v1::Transient::Stub>> stub =
+      ConnectToTransientd(address, options.connect_timeout_s, cancel);
+  if (!stub.ok()) return stub.status();
+  absl::StatusOr<v1::Info> info = GetTransientdInfo(**stub, address);
+  if (!info.ok()) return info.status();
+  v1::Config config;
+  {
+    grpc::ClientContext context;
+    context.set_deadline(absl::ToChronoTime(absl::Now() + kConfigTimeout));
+    if (grpc::Status status = (*stub)->GetConfig(&context, v1::GetConfigRequest(), &config);
+        !status.ok()) {
+      return Prefixed(absl::StrCat("GetConfig from transientd at ", address, ": "),
+                      service::FromGrpcStatus(status));
+    }
+  }
+
+  std::unique_ptr<DaemonFrameSource> source(new DaemonFrameSource());
+  source->name_ = absl::StrCat(kDaemonInputPrefix, address);
+  source->source_uri_ = info->source_uri();
+  const v1::CameraInfo& camera = info->camera();
+  const double f = info->schedule().base_frequency_hz();
+  if (camera.width() == 0 || camera.height() == 0 || camera.width() > kMaxImageSide ||
+      camera.height() > kMaxImageSide || !(f > 0.0) || !std::isfinite(f)) {
+    return absl::DataLossError(absl::StrCat(
+        "GetInfo from transientd at ", address, ": a ", camera.width(), "x", camera.height(),
+        " px camera at base frequency ", f, " Hz; expected a sensor and a frequency > 0"));
+  }
+  source->geometry_ = {static_cast<int>(camera.width()), static_cast<int>(camera.height())};
+  source->base_frequency_hz_ = f;
+  source->order_ = static_cast<int>(info->schedule().order());
+  if (config.has_threshold()) source->threshold_ = config.threshold();
+  const Intrinsics intrinsics{
+      .fx = camera.fx(), .fy = camera.fy(), .cx = camera.cx(), .cy = camera.cy()};
+  if (intrinsics.Validate().ok()) source->intrinsics_ = intrinsics;
+
+  // What to ask for: every product of WireProducts() that the daemon offers (an empty list
+  // from an older daemon: all of them).
+  v1::StreamRequest request;
+  std::vector<std::string> not_offered;
+  for (const WireProduct& product : WireProducts()) {
+    const bool offered =
+        info->products_size() == 0 || std::find(info->products().begin(), info->products().end(),
+                                                product.product) != info->products().end();
+    if (!offered) {
+      not_offered.push_back(product.name);
+      continue;
+    }
+    request.add_products(product.product);
+    for (Product plane : product.planes) source->available_.set(static_cast<int>(plane));
+  }
+  if (!not_offered.empty()) {
+    source->notes_.push_back(absl::StrCat("transientd at ", address, " does not offer ",
+                                          absl::StrJoin(not_offered, ", ")));
+  }
+  const bool slices =
+      Has(source->available_, Product::kDensity) || Has(source->available_, Product::kCumulative);
+  if (slices) {
+    for (int n = 0; n < options.bins; ++n) {
+      source->phases_.push_back(2.0 * std::numbers::pi * n / options.bins);
+    }
+  }
+  const int64_t pixels = source->geometry_.pixel_count();
+  const int64_t bytes_per_frame = pixels * (4 * (4 + 2 * int64_t{options.bins}) + 1);
+  if (options.frames * bytes_per_frame > kMaxDaemonFrameBytes) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "--frames %d --bins %d of the %dx%d px sensor of transientd at %s need %d MiB in "
+        "memory; at most %d MiB: ask for fewer frames or bins",
+        options.frames, options.bins, source->geometry_.width, source->geometry_.height, address,
+        options.frames * bytes_per_frame >> 20, kMaxDaemonFrameBytes >> 20));
+  }
+  request.set_encoding(v1::FLOAT32);  // the density as the daemon computed it
+  request.mutable_slices()->set_bins(static_cast<uint32_t>(options.bins));
+
+  TransientFrame blank;
+  blank.geometry = source->geometry_;
+  blank.order = source->order_;
+  blank.base_frequency_hz = f;
+  blank.threshold = source->threshold_;
+  blank.phases = source->phases_;
+
+  int64_t dropped = 0;
+  absl::Status last_dropped;
+  grpc::Status stream_status;
+  bool interrupted = false;
+  {
+    grpc::ClientContext context;
+    std::unique_ptr<grpc::ClientReader<v1::Frame>> reader =
+        (*stub)->StreamFrames(&context, request);
+    StreamWatcher watcher(&context, cancel, absl::InfiniteFuture());
+    v1::Frame wire;
+    while (source->frames() < options.frames && dropped <= options.frames && reader->Read(&wire)) {
+      if (wire.images_size() == 0) continue;  // a state announcement
+      TransientFrame frame = blank;
+      frame.index = source->frames();
+      if (absl::Status status = FillFrame(wire, source->available_, &frame); !status.ok()) {
+        ++dropped;
+        last_dropped = status;
+        continue;
+      }
+      source->frames_.push_back(std::move(frame));
+      source->sequences_.push_back(wire.sequence());
+    }
+    interrupted = watcher.reason() == StreamWatcher::Reason::kInterrupted;
+    // Ours to end: its CANCELLED status is then not an error (each case is handled below).
+    if (source->frames() >= options.frames || dropped > options.frames) context.TryCancel();
+    while (reader->Read(&wire)) {
+    }  // drain what was in flight before Finish
+    stream_status = reader->Finish();
+  }
+  if (interrupted) {
+    return absl::CancelledError(absl::StrCat(
+        "interrupted while receiving frames from transientd at ", address, "; nothing written"));
+  }
+  if (dropped > options.frames) {
+    return Prefixed(
+        absl::StrCat("transientd at ", address, ": ", dropped, " unusable frames, the last: "),
+        last_dropped);
+  }
+  if (dropped > 0) {
+    source->notes_.push_back(absl::StrCat(dropped, " frame", dropped == 1 ? "" : "s",
+                                          " from transientd dropped: ", last_dropped.message()));
+  }
+  const bool ended_early = source->frames() < options.frames;
+  if (ended_early) {
+    const absl::Status ended = stream_status.ok() ? absl::OutOfRangeError("the stream ended")
+                                                  : service::FromGrpcStatus(stream_status);
+    // A replay that reached its end (OutOfRange) still leaves the frames it sent; anything
+    // else, or nothing received, is an error.
+    if (source->frames_.empty() || ended.code() != absl::StatusCode::kOutOfRange) {
+      return Prefixed(absl::StrCat("stream from transientd at ", address, " ended after ",
+                                   source->frames(), " of ", options.frames, " frames: "),
+                      ended);
+    }
+    source->notes_.push_back(absl::StrCat("transientd sent ", source->frames(), " of the ",
+                                          options.frames, " frames asked for: ", ended.message()));
+  }
+  return source;
+}
+
+absl::Status DaemonFrameSource::ReadFrame(int64_t frame, ProductSet wanted,
+                                          TransientFrame* out) const {
+  if (frame < 0 || frame >= frames()) {
+    return absl::OutOfRangeError(
+        absl::StrCat(name_, ": frame ", frame, " of ", frames(), " received"));
+  }
+  const ProductSet missing = wanted & ~available_;
+  if (missing.any()) {
+    std::vector<std::string> names;
+    for (int p = 0; p < kProductCount; ++p) {
+      if (missing[p]) names.push_back(ProductPath(static_cast<Product>(p)));
+    }
+    return absl::NotFoundError(
+        absl::StrCat(name_, ": transientd sends no ", absl::StrJoin(names, ", ")));
+  }
+  const TransientFrame& stored = frames_[frame];
+  *out = TransientFrame{.geometry = stored.geometry,
+                        .order = stored.order,
+                        .base_frequency_hz = stored.base_frequency_hz,
+                        .index = stored.index,
+                        .threshold = stored.threshold,
+                        .phases = stored.phases};
+  if (Has(wanted, Product::kFlags)) out->flags = stored.flags;
+  for (int p = 0; p < kProductCount; ++p) {
+    if (!wanted[p]) continue;
+    const Product product = static_cast<Product>(p);
+    if (std::vector<float>* plane = FloatPlanes(out, product); plane != nullptr) {
+      *plane = *FloatPlanes(const_cast<TransientFrame*>(&stored), product);
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace transient::tools
