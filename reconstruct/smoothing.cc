@@ -2,6 +2,7 @@
 #include "transient/reconstruct/smoothing.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <vector>
 
@@ -53,6 +54,22 @@ void VerticalPass(const std::vector<float>& kernel, int width, int height, const
 
 }  // namespace
 
+int GaussianRadius(double sigma_px) {
+  assert(sigma_px > 0.0);
+  return static_cast<int>(std::ceil(3.0 * sigma_px));
+}
+
+std::vector<double> GaussianHalfKernel(double sigma_px) {
+  assert(sigma_px > 0.0 && std::isfinite(sigma_px));
+  std::vector<double> kernel(static_cast<size_t>(GaussianRadius(sigma_px) + 1));
+  kernel[0] = 1.0;  // not exp(-0 / sigma^2): a sigma^2 that underflows to 0 would give NaN
+  for (size_t d = 1; d < kernel.size(); ++d) {
+    const double dd = static_cast<double>(d);
+    kernel[d] = std::exp(-0.5 * (dd * dd) / (sigma_px * sigma_px));
+  }
+  return kernel;
+}
+
 absl::Status ValidateSmoothingSigma(double sigma_px) {
   if (!(sigma_px >= 0.0 && sigma_px <= kMaxSmoothingSigmaPx)) {
     return absl::InvalidArgumentError(
@@ -71,12 +88,8 @@ absl::Status GaussianSmooth(double sigma_px, MomentImage* moments) {
   const int height = moments->geometry.height;
   const int64_t pixels = moments->geometry.pixel_count();
   const int m = moments->order;
-  const int radius = static_cast<int>(std::ceil(3.0 * sigma_px));
-  std::vector<float> kernel(static_cast<size_t>(radius + 1));
-  for (int d = 0; d <= radius; ++d) {
-    kernel[static_cast<size_t>(d)] =
-        static_cast<float>(std::exp(-0.5 * (d * d) / (sigma_px * sigma_px)));
-  }
+  const std::vector<double> half_kernel = GaussianHalfKernel(sigma_px);
+  const std::vector<float> kernel(half_kernel.begin(), half_kernel.end());
 
   // Weights: valid and finite in every plane (a NaN in a "valid" pixel must not spread).
   std::vector<float> weight(static_cast<size_t>(pixels), 0.0f);

@@ -2,6 +2,8 @@
 // reduce noise before reconstruction.
 #pragma once
 
+#include <vector>
+
 #include "absl/status/status.h"
 #include "transient/reconstruct/image.h"
 
@@ -11,6 +13,13 @@ namespace transient {
 inline constexpr double kDefaultSmoothingSigmaPx = 0.6;
 // A wider filter would blur away the scene rather than the noise; also bounds the radius.
 inline constexpr double kMaxSmoothingSigmaPx = 10.0;
+
+// The Gaussian filters of this library (here and moment_filter.h) are truncated at radius
+// ceil(3 * sigma_px): the tails dropped weigh 0.27% of a 1-D kernel. Requires sigma_px > 0.
+int GaussianRadius(double sigma_px);
+// The unnormalised half kernel g[d] = exp(-d^2 / (2 sigma_px^2)), d = 0..GaussianRadius(sigma_px).
+// Requires sigma_px > 0 and finite.
+std::vector<double> GaussianHalfKernel(double sigma_px);
 
 // InvalidArgument unless 0 <= sigma_px <= kMaxSmoothingSigmaPx and finite.
 absl::Status ValidateSmoothingSigma(double sigma_px);
