@@ -9,40 +9,6 @@
 namespace transient::tools {
 namespace {
 
-enum class Planes { kOne, kBins, kOrder };
-
-struct ProductSpec {
-  Product product;
-  const char* path;
-  Planes planes;
-  const char* units;  // nullptr: no units attribute
-};
-
-// The one place that names the datasets; README.md documents the same table.
-constexpr ProductSpec kProducts[kProductCount] = {
-    {Product::kRange, "/range_m", Planes::kOne, "m"},
-    {Product::kZerothMoment, "/c0", Planes::kOne, nullptr},
-    {Product::kFlags, "/flags", Planes::kOne, nullptr},
-    {Product::kDensity, "/density", Planes::kBins, "1/rad"},
-    {Product::kCumulative, "/cumulative", Planes::kBins, nullptr},
-    {Product::kPisarenkoPhase, "/pisarenko/phase", Planes::kOrder, "rad"},
-    {Product::kPisarenkoWeight, "/pisarenko/weight", Planes::kOrder, nullptr},
-    {Product::kPisarenkoUniform, "/pisarenko/uniform", Planes::kOne, nullptr},
-    {Product::kPisarenkoRange, "/pisarenko/range_m", Planes::kOne, "m"},
-    {Product::kPisarenkoDirect, "/pisarenko/direct", Planes::kOne, nullptr},
-    {Product::kPisarenkoIndirect, "/pisarenko/indirect", Planes::kOne, nullptr},
-    {Product::kBoundsLower, "/bounds/lower", Planes::kBins, "1/rad"},
-    {Product::kBoundsUpper, "/bounds/upper", Planes::kBins, "1/rad"},
-};
-
-constexpr bool ProductsAreInEnumOrder() {
-  for (int i = 0; i < kProductCount; ++i) {
-    if (static_cast<int>(kProducts[i].product) != i) return false;
-  }
-  return true;
-}
-static_assert(ProductsAreInEnumOrder(), "kProducts is indexed by Product");
-
 bool Wanted(Product product, const ReconstructionHeader& header) {
   switch (product) {
     case Product::kRange:
@@ -142,12 +108,12 @@ absl::StatusOr<ReconstructionFile> ReconstructionFile::Create(const std::string&
 
   const hsize_t frames = header.frames;
   const hsize_t height = header.geometry.height, width = header.geometry.width;
-  for (const ProductSpec& spec : kProducts) {
+  for (const ProductLayout& spec : kProductLayouts) {
     if (!Wanted(spec.product, header)) continue;
-    const int planes = spec.planes == Planes::kOne    ? 1
-                       : spec.planes == Planes::kBins ? static_cast<int>(header.phases.size())
+    const int planes = spec.planes == ProductPlanes::kOne    ? 1
+                       : spec.planes == ProductPlanes::kBins ? static_cast<int>(header.phases.size())
                                                       : header.order;
-    const bool stacked = spec.planes != Planes::kOne;
+    const bool stacked = spec.planes != ProductPlanes::kOne;
     const std::vector<hsize_t> dims =
         stacked ? std::vector<hsize_t>{frames, static_cast<hsize_t>(planes), height, width}
                 : std::vector<hsize_t>{frames, height, width};
@@ -186,7 +152,7 @@ absl::StatusOr<ReconstructionFile> ReconstructionFile::Create(const std::string&
 
 absl::Status ReconstructionFile::WritePlanes(Product product, int64_t frame, int first_plane,
                                              int64_t values, hid_t memory_type, const void* data) {
-  const ProductSpec& spec = kProducts[Index(product)];
+  const ProductLayout& spec = kProductLayouts[Index(product)];
   const int64_t pixels = geometry_.pixel_count();
   const int planes = planes_[Index(product)];
   const int64_t count = pixels > 0 ? values / pixels : 0;
@@ -196,7 +162,7 @@ absl::Status ReconstructionFile::WritePlanes(Product product, int64_t frame, int
                                             " values at frame ", frame, ", plane ", first_plane));
   }
   const hsize_t height = geometry_.height, width = geometry_.width;
-  const bool stacked = spec.planes != Planes::kOne;
+  const bool stacked = spec.planes != ProductPlanes::kOne;
   const std::vector<hsize_t> start =
       stacked ? std::vector<hsize_t>{static_cast<hsize_t>(frame), static_cast<hsize_t>(first_plane),
                                      0, 0}

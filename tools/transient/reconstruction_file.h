@@ -38,6 +38,43 @@ enum class Product {
 };
 inline constexpr int kProductCount = 13;
 
+// How many image planes a product has per frame: one, one per bin phase, or one per moment
+// order (the m Pisarenko returns).
+enum class ProductPlanes { kOne, kBins, kOrder };
+
+// Where and how a product is stored: the one place that names the datasets, shared by the
+// writer and the reader; README.md documents the same table.
+struct ProductLayout {
+  Product product;
+  const char* path;
+  ProductPlanes planes;
+  const char* units;  // nullptr: no units attribute
+};
+
+inline constexpr std::array<ProductLayout, kProductCount> kProductLayouts = {{
+    {Product::kRange, "/range_m", ProductPlanes::kOne, "m"},
+    {Product::kZerothMoment, "/c0", ProductPlanes::kOne, nullptr},
+    {Product::kFlags, "/flags", ProductPlanes::kOne, nullptr},
+    {Product::kDensity, "/density", ProductPlanes::kBins, "1/rad"},
+    {Product::kCumulative, "/cumulative", ProductPlanes::kBins, nullptr},
+    {Product::kPisarenkoPhase, "/pisarenko/phase", ProductPlanes::kOrder, "rad"},
+    {Product::kPisarenkoWeight, "/pisarenko/weight", ProductPlanes::kOrder, nullptr},
+    {Product::kPisarenkoUniform, "/pisarenko/uniform", ProductPlanes::kOne, nullptr},
+    {Product::kPisarenkoRange, "/pisarenko/range_m", ProductPlanes::kOne, "m"},
+    {Product::kPisarenkoDirect, "/pisarenko/direct", ProductPlanes::kOne, nullptr},
+    {Product::kPisarenkoIndirect, "/pisarenko/indirect", ProductPlanes::kOne, nullptr},
+    {Product::kBoundsLower, "/bounds/lower", ProductPlanes::kBins, "1/rad"},
+    {Product::kBoundsUpper, "/bounds/upper", ProductPlanes::kBins, "1/rad"},
+}};
+
+constexpr bool ProductLayoutsAreInEnumOrder() {
+  for (int i = 0; i < kProductCount; ++i) {
+    if (static_cast<int>(kProductLayouts[i].product) != i) return false;
+  }
+  return true;
+}
+static_assert(ProductLayoutsAreInEnumOrder(), "kProductLayouts is indexed by Product");
+
 // What a file holds and the settings recorded in its root attributes.
 struct ReconstructionHeader {
   int64_t frames = 0;  // frames written (those selected by --frames)

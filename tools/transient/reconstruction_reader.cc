@@ -13,40 +13,6 @@
 namespace transient::tools {
 namespace {
 
-enum class Planes { kOne, kBins, kOrder };
-
-struct DatasetSpec {
-  Product product;
-  const char* path;
-  Planes planes;
-};
-
-// The layout of README.md ("Output: reconstruction file"), as ReconstructionFile writes it;
-// reconstruction_reader_test.cc reads back what the writer wrote, so the two tables agree.
-constexpr DatasetSpec kDatasets[kProductCount] = {
-    {Product::kRange, "/range_m", Planes::kOne},
-    {Product::kZerothMoment, "/c0", Planes::kOne},
-    {Product::kFlags, "/flags", Planes::kOne},
-    {Product::kDensity, "/density", Planes::kBins},
-    {Product::kCumulative, "/cumulative", Planes::kBins},
-    {Product::kPisarenkoPhase, "/pisarenko/phase", Planes::kOrder},
-    {Product::kPisarenkoWeight, "/pisarenko/weight", Planes::kOrder},
-    {Product::kPisarenkoUniform, "/pisarenko/uniform", Planes::kOne},
-    {Product::kPisarenkoRange, "/pisarenko/range_m", Planes::kOne},
-    {Product::kPisarenkoDirect, "/pisarenko/direct", Planes::kOne},
-    {Product::kPisarenkoIndirect, "/pisarenko/indirect", Planes::kOne},
-    {Product::kBoundsLower, "/bounds/lower", Planes::kBins},
-    {Product::kBoundsUpper, "/bounds/upper", Planes::kBins},
-};
-
-constexpr bool DatasetsAreInEnumOrder() {
-  for (int i = 0; i < kProductCount; ++i) {
-    if (static_cast<int>(kDatasets[i].product) != i) return false;
-  }
-  return true;
-}
-static_assert(DatasetsAreInEnumOrder(), "kDatasets is indexed by Product");
-
 // Whether the file must have `product`: the method decides MESE and Pisarenko products, the
 // bounds are optional (as a pair).
 bool Required(Product product, const std::string& method) {
@@ -72,13 +38,13 @@ bool Required(Product product, const std::string& method) {
   return false;
 }
 
-const char* ShapeName(Planes planes) {
+const char* ShapeName(ProductPlanes planes) {
   switch (planes) {
-    case Planes::kOne:
+    case ProductPlanes::kOne:
       return "[frames, height, width]";
-    case Planes::kBins:
+    case ProductPlanes::kBins:
       return "[frames, bins, height, width]";
-    case Planes::kOrder:
+    case ProductPlanes::kOrder:
       return "[frames, m, height, width]";
   }
   return "";
@@ -98,7 +64,7 @@ absl::StatusOr<int64_t> ReadPositiveInteger(hid_t object, const char* name,
 
 }  // namespace
 
-const char* ProductPath(Product product) { return kDatasets[static_cast<int>(product)].path; }
+const char* ProductPath(Product product) { return kProductLayouts[static_cast<int>(product)].path; }
 
 ProductSet Products(std::initializer_list<Product> products) {
   ProductSet set;
@@ -177,7 +143,7 @@ absl::StatusOr<ReconstructionReader> ReconstructionReader::Open(const std::strin
 
   // /range_m fixes frames, height and width for every other dataset.
   std::vector<hsize_t> frame_shape;
-  for (const DatasetSpec& spec : kDatasets) {
+  for (const ProductLayout& spec : kProductLayouts) {
     const bool present = h5::LinkExists(id, spec.path);
     if (!present) {
       if (Required(spec.product, reader.method_)) {
@@ -203,8 +169,8 @@ absl::StatusOr<ReconstructionReader> ReconstructionReader::Open(const std::strin
     }
     h5::Id space = h5::Dataspace(H5Dget_space(dataset->get()));
     const std::vector<hsize_t> dims = h5::Dimensions(space.get());
-    const int planes = spec.planes == Planes::kOne    ? 1
-                       : spec.planes == Planes::kBins ? static_cast<int>(*bins)
+    const int planes = spec.planes == ProductPlanes::kOne    ? 1
+                       : spec.planes == ProductPlanes::kBins ? static_cast<int>(*bins)
                                                       : reader.order_;
     if (frame_shape.empty()) {  // /range_m, the first of the table
       if (dims.size() != 3) {
@@ -224,7 +190,7 @@ absl::StatusOr<ReconstructionReader> ReconstructionReader::Open(const std::strin
       frame_shape = dims;
     }
     const std::vector<hsize_t> expected =
-        spec.planes == Planes::kOne
+        spec.planes == ProductPlanes::kOne
             ? frame_shape
             : std::vector<hsize_t>{frame_shape[0], static_cast<hsize_t>(planes), frame_shape[1],
                                    frame_shape[2]};
@@ -315,7 +281,7 @@ absl::Status ReconstructionReader::ReadFrame(int64_t frame, ProductSet wanted,
   };
   const hsize_t height = geometry_.height, width = geometry_.width;
   const int64_t pixels = geometry_.pixel_count();
-  for (const DatasetSpec& spec : kDatasets) {
+  for (const ProductLayout& spec : kProductLayouts) {
     const int index = static_cast<int>(spec.product);
     const bool is_flags = spec.product == Product::kFlags;
     if (!wanted[index]) {
@@ -334,7 +300,7 @@ absl::Status ReconstructionReader::ReadFrame(int64_t frame, ProductSet wanted,
                        bounds ? "; transient reconstruct --bounds-r R writes /bounds" : "", ")"));
     }
     const int planes = planes_[index];
-    const bool stacked = spec.planes != Planes::kOne;
+    const bool stacked = spec.planes != ProductPlanes::kOne;
     const std::vector<hsize_t> start =
         stacked ? std::vector<hsize_t>{static_cast<hsize_t>(frame), 0, 0, 0}
                 : std::vector<hsize_t>{static_cast<hsize_t>(frame), 0, 0};
