@@ -5,9 +5,13 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/LU>
+#include <immintrin.h>
+
 #include <algorithm>
+#include <bit>
 #include <cassert>
 #include <cmath>
+#include <cstdint>
 
 #include "absl/strings/str_cat.h"
 
@@ -185,6 +189,112 @@ Real HausdorffFourPoint(const std::array<Real, kPowerMomentCount>& b, Real z_f) 
   return Saturate(result);
 }
 
+// ---- batched single precision (OcclusionFractions) ------------------------------------------
+
+// Texels per block: transposed from PowerMomentsF to one array per moment on the stack (5 KiB).
+constexpr int kBatchBlock = 256;
+
+// Hamburger4Occlusion on `count` texels (a multiple of 8) given as planes m0..m4 and queries z,
+// eight at a time with AVX2 + FMA: BiasedMoments, ClampQuery, FactorHankel, SolveAtQuery,
+// RootOffsets and SupportWeight above with the same float operations in the same order (FMA
+// exactly where they call std::fma), every branch of HamburgerBiased computed and selected
+// (lanes whose branch is not taken may compute inf or NaN; the selects drop them). Hence the
+// results equal the scalar function's. Written with intrinsics rather than `#pragma omp simd`:
+// GCC keeps std::sqrt's errno path as a branch and then refuses to vectorize the loop unless the
+// whole file is built with -fno-math-errno. fp-contract=off: GCC would otherwise fuse the
+// separate multiplies and adds (b'_2 = keep b_2 + even, q_1 = s_1 - l_21 s_2) into FMAs, which
+// the scalar functions, built for plain x86-64, round twice.
+//
+// std::max(x, k) = x < k ? k : x is _mm256_max_ps(k, x) (MAXPS returns its second operand when
+// the first is not greater, NaN included), std::min(a, c) = c < a ? c : a is _mm256_min_ps(c, a);
+// comparisons are ordered (false on NaN), like C++'s.
+#define TRANSIENT_AVX2_FMA __attribute__((target("avx2,fma"), optimize("fp-contract=off")))
+
+// All-ones exponent (NaN or infinity), as integer lanes of -1 / 0.
+TRANSIENT_AVX2_FMA inline __m256i NonFinite8(__m256 v) {
+  const __m256i exponent = _mm256_set1_epi32(0x7f800000);
+  return _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_castps_si256(v), exponent), exponent);
+}
+
+// HamburgerBiased's Saturate: v >= 0 ? std::min(v, 1) : 0.
+TRANSIENT_AVX2_FMA inline __m256 Saturate8(__m256 v) {
+  const __m256 zero = _mm256_setzero_ps();
+  return _mm256_blendv_ps(zero, _mm256_min_ps(_mm256_set1_ps(1.0f), v),
+                          _mm256_cmp_ps(v, zero, _CMP_GE_OQ));
+}
+
+TRANSIENT_AVX2_FMA void HamburgerBlockAvx2(
+    const float* m0, const float* m1, const float* m2, const float* m3, const float* m4,
+    const float* z, int count, float alpha, float b_star_even, float* out) {
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+  const __m256 limit = _mm256_set1_ps(static_cast<float>(kMaxQueryDepth));
+  const __m256 neg_limit = _mm256_set1_ps(-static_cast<float>(kMaxQueryDepth));
+  const __m256 min_pivot = _mm256_set1_ps(1e-30f);   // FactorHankel's kMinPivot
+  const __m256 far_away = _mm256_set1_ps(-1e4f);     // HamburgerBiased's -kFarAway
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  const __m256 one_minus_alpha = _mm256_set1_ps(1.0f - alpha);
+  const __m256 even = _mm256_set1_ps(alpha * b_star_even);
+  for (int i = 0; i < count; i += 8) {
+    const __m256 b0 = _mm256_loadu_ps(m0 + i), raw1 = _mm256_loadu_ps(m1 + i),
+                 raw2 = _mm256_loadu_ps(m2 + i), raw3 = _mm256_loadu_ps(m3 + i),
+                 raw4 = _mm256_loadu_ps(m4 + i), query = _mm256_loadu_ps(z + i);
+    // BiasedMoments and ClampQuery: degenerate input gives 0.
+    const __m256i bad = _mm256_or_si256(
+        _mm256_or_si256(_mm256_or_si256(NonFinite8(b0), NonFinite8(raw1)),
+                        _mm256_or_si256(NonFinite8(raw2), NonFinite8(raw3))),
+        NonFinite8(raw4));
+    const __m256 usable = _mm256_andnot_ps(
+        _mm256_castsi256_ps(bad), _mm256_and_ps(_mm256_cmp_ps(b0, zero, _CMP_GT_OQ),
+                                                _mm256_cmp_ps(query, query, _CMP_ORD_Q)));
+    const __m256 keep = _mm256_div_ps(one_minus_alpha, b0);
+    const __m256 b1 = _mm256_mul_ps(keep, raw1);
+    const __m256 b2 = _mm256_add_ps(_mm256_mul_ps(keep, raw2), even);
+    const __m256 b3 = _mm256_mul_ps(keep, raw3);
+    const __m256 b4 = _mm256_add_ps(_mm256_mul_ps(keep, raw4), even);
+    const __m256 z_f = _mm256_min_ps(limit, _mm256_max_ps(neg_limit, query));
+    // FactorHankel.
+    const __m256 d1 = _mm256_max_ps(min_pivot, _mm256_fnmadd_ps(b1, b1, b2));
+    const __m256 t = _mm256_fnmadd_ps(b1, b2, b3);
+    const __m256 l21 = _mm256_div_ps(t, d1);
+    const __m256 d2 =
+        _mm256_max_ps(min_pivot, _mm256_fnmadd_ps(l21, t, _mm256_fnmadd_ps(b2, b2, b4)));
+    // SolveAtQuery.
+    const __m256 y1 = _mm256_sub_ps(z_f, b1);
+    const __m256 y2 = _mm256_fnmadd_ps(l21, y1, _mm256_fmsub_ps(z_f, z_f, b2));
+    const __m256 s1 = _mm256_div_ps(y1, d1);
+    const __m256 s2 = _mm256_div_ps(y2, d2);
+    const __m256 q2 = s2;
+    const __m256 q1 = _mm256_sub_ps(s1, _mm256_mul_ps(l21, s2));
+    const __m256 value = _mm256_fmadd_ps(y2, s2, _mm256_fmadd_ps(y1, s1, one));
+    const __m256 slope = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_set1_ps(2.0f), q2), z_f, q1);
+    // q2 > 0: z_f outside the roots: 0 left of both, 1 - w_0 right of both.
+    const __m256 outside =
+        _mm256_blendv_ps(Saturate8(_mm256_sub_ps(one, _mm256_div_ps(one, value))), zero,
+                         _mm256_cmp_ps(slope, zero, _CMP_LE_OQ));
+    // q2 < 0: RootOffsets and SupportWeight at the lower root.
+    const __m256 minus_4ac = _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(-4.0f), q2), value);
+    const __m256 discriminant = _mm256_max_ps(zero, _mm256_fmadd_ps(slope, slope, minus_4ac));
+    const __m256 root_term = _mm256_or_ps(_mm256_andnot_ps(sign, _mm256_sqrt_ps(discriminant)),
+                                          _mm256_and_ps(sign, slope));  // copysign
+    const __m256 half = _mm256_mul_ps(_mm256_set1_ps(-0.5f), _mm256_add_ps(slope, root_term));
+    const __m256 a = _mm256_div_ps(half, q2);
+    const __m256 c = _mm256_div_ps(value, half);
+    const __m256 u_low = _mm256_min_ps(c, a);
+    const __m256 root = _mm256_add_ps(z_f, u_low);
+    const __m256 e1 = _mm256_sub_ps(root, b1);
+    const __m256 e2 = _mm256_fnmadd_ps(l21, e1, _mm256_fmsub_ps(root, root, b2));
+    const __m256 form = _mm256_fmadd_ps(e2, _mm256_div_ps(e2, d2),
+                                        _mm256_fmadd_ps(e1, _mm256_div_ps(e1, d1), one));
+    const __m256 between = _mm256_blendv_ps(zero, Saturate8(_mm256_div_ps(one, form)),
+                                            _mm256_cmp_ps(u_low, far_away, _CMP_GT_OQ));
+    // q2 == 0 (or NaN): thm. 4.1's failure point, 0.
+    __m256 result = _mm256_blendv_ps(zero, between, _mm256_cmp_ps(q2, zero, _CMP_LT_OQ));
+    result = _mm256_blendv_ps(result, outside, _mm256_cmp_ps(q2, zero, _CMP_GT_OQ));
+    _mm256_storeu_ps(out + i, _mm256_and_ps(result, usable));
+  }
+}
+#undef TRANSIENT_AVX2_FMA
+
 }  // namespace
 
 absl::Status DepthNormalisation::Validate() const {
@@ -323,6 +433,36 @@ float VarianceOcclusion(const PowerMomentsF& moments, float z_f, const MomentBia
 
 float OcclusionFraction(const PowerMomentsF& moments, float z_f) {
   return Hamburger4Occlusion(moments, z_f, kFloatMomentBias);
+}
+
+void OcclusionFractions(std::span<const PowerMomentsF> moments, std::span<const float> z_f,
+                        std::span<float> out, const MomentBias& bias) {
+  assert(moments.size() == z_f.size() && moments.size() == out.size());
+  static const bool kAvx2Fma = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  size_t begin = 0;
+  if (kAvx2Fma) {
+    const float alpha = static_cast<float>(bias.alpha);
+    const float b_star_even = static_cast<float>(bias.b_star_even);
+    alignas(32) float planes[kPowerMomentCount][kBatchBlock];
+    for (; begin + 8 <= moments.size(); begin += kBatchBlock) {
+      // Whole groups of 8 only; the rest goes to the scalar loop below.
+      const int count =
+          static_cast<int>(std::min<size_t>(kBatchBlock, moments.size() - begin) / 8 * 8);
+      for (int i = 0; i < count; ++i) {
+        const PowerMomentsF& b = moments[begin + static_cast<size_t>(i)];
+        for (int j = 0; j < kPowerMomentCount; ++j) planes[j][i] = b[static_cast<size_t>(j)];
+      }
+      HamburgerBlockAvx2(planes[0], planes[1], planes[2], planes[3], planes[4],
+                         z_f.data() + begin, count, alpha, b_star_even, out.data() + begin);
+      if (count < kBatchBlock) {
+        begin += static_cast<size_t>(count);
+        break;
+      }
+    }
+  }
+  for (; begin < moments.size(); ++begin) {
+    out[begin] = Hamburger4Occlusion(moments[begin], z_f[begin], bias);
+  }
 }
 
 }  // namespace transient

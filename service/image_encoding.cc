@@ -177,7 +177,8 @@ absl::Status CheckEncoding(v1::Product product, v1::Encoding encoding) {
   switch (product) {
     case v1::RANGE:
     case v1::DEPTH:
-    case v1::FLAGS:  // always 8UC1; the requested encoding is ignored
+    case v1::FLAGS:         // always 8UC1; the requested encoding is ignored
+    case v1::MOMENT_DEPTH:  // 16UC4 or 32FC4 by MomentDepthRequest.bits; likewise
       return absl::OkStatus();
     case v1::AMPLITUDE:
     case v1::C0:
@@ -194,7 +195,7 @@ absl::Status CheckEncoding(v1::Product product, v1::Encoding encoding) {
     default:
       return absl::InvalidArgumentError(
           absl::StrCat("product=", ProductName(product),
-                       ". Violated constraint: one of RANGE..DIRECT_INDIRECT"));
+                       ". Violated constraint: one of RANGE..MOMENT_DEPTH"));
   }
 }
 
@@ -267,35 +268,45 @@ absl::Status EncodeBytePlane(std::span<const uint8_t> plane, ImageGeometry senso
   return absl::OkStatus();
 }
 
-absl::StatusOr<std::vector<float>> DecodeImage(const v1::Image& image) {
+namespace {
+
+// The layouts DecodeImage knows: bytes per channel and channels per pixel.
+struct WireLayout {
+  uint64_t bytes_per_channel = 0;
+  uint64_t channels = 0;
+  uint64_t bytes_per_pixel() const { return bytes_per_channel * channels; }
+};
+
+absl::StatusOr<WireLayout> LayoutOf(const std::string& encoding) {
+  if (encoding == "32FC1") return WireLayout{4, 1};
+  if (encoding == "16FC1" || encoding == "16UC1") return WireLayout{2, 1};
+  if (encoding == "8UC1") return WireLayout{1, 1};
+  if (encoding == "16UC4") return WireLayout{2, 4};
+  if (encoding == "32FC4") return WireLayout{4, 4};
+  return absl::InvalidArgumentError(absl::StrCat(
+      "encoding=\"", encoding, "\". Violated constraint: one of 32FC1, 16FC1, 16UC1, 8UC1, ",
+      "16UC4, 32FC4"));
+}
+
+// The image's pixel bytes, uncompressed and checked against width, height, step and encoding.
+absl::StatusOr<std::string> ImageBytes(const v1::Image& image, WireLayout layout) {
   const auto data_loss = [&image](auto&&... parts) {
     return absl::DataLossError(absl::StrCat("image \"", image.name(), "\": ", parts...));
   };
-
   const std::string& encoding = image.encoding();
-  uint64_t bytes_per_pixel = 0;
-  if (encoding == "32FC1") {
-    bytes_per_pixel = 4;
-  } else if (encoding == "16FC1" || encoding == "16UC1") {
-    bytes_per_pixel = 2;
-  } else if (encoding == "8UC1") {
-    bytes_per_pixel = 1;
-  } else {
-    return data_loss("encoding=\"", encoding,
-                     "\". Violated constraint: one of 32FC1, 16FC1, 16UC1, 8UC1");
-  }
-
+  const uint64_t bytes_per_pixel = layout.bytes_per_pixel();
   const uint64_t width = image.width();
   const uint64_t height = image.height();
   if (width == 0 || height == 0) {
     return data_loss("width=", width, ", height=", height,
                      ". Violated constraint: width, height > 0");
   }
-  // Both are uint32, so the product fits in uint64; the limit keeps pixels * 4 far from overflow.
+  // Both are uint32, so the product fits in uint64; the limit keeps values * 4 far from overflow.
   const uint64_t pixels = width * height;
-  if (pixels > kMaxDecodedPixels) {
-    return data_loss("width=", width, " * height=", height, " = ", pixels,
-                     " pixels. Violated constraint: at most ", kMaxDecodedPixels);
+  if (pixels * layout.channels > kMaxDecodedPixels) {
+    return data_loss("width=", width, " * height=", height, " = ", pixels, " pixels of ",
+                     layout.channels, " values. Violated constraint: at most ",
+                     kMaxDecodedPixels, " values");
   }
   if (image.step() != width * bytes_per_pixel) {
     return data_loss("step=", image.step(), ". Violated constraint: step = width * ",
@@ -305,16 +316,13 @@ absl::StatusOr<std::vector<float>> DecodeImage(const v1::Image& image) {
   const uint64_t expected_bytes = pixels * bytes_per_pixel;
 
   const std::string& data = image.data();
-  std::string decompressed;
-  const unsigned char* bytes = nullptr;
   switch (image.compression()) {
     case v1::COMPRESSION_NONE:
       if (data.size() != expected_bytes) {
         return data_loss("data holds ", data.size(), " bytes. Violated constraint: width * height",
                          " * ", bytes_per_pixel, " = ", expected_bytes);
       }
-      bytes = reinterpret_cast<const unsigned char*>(data.data());
-      break;
+      return data;
     case v1::ZSTD: {
       const unsigned long long content_size = ZSTD_getFrameContentSize(data.data(), data.size());
       if (content_size == ZSTD_CONTENTSIZE_ERROR) {
@@ -344,7 +352,7 @@ absl::StatusOr<std::vector<float>> DecodeImage(const v1::Image& image) {
         return data_loss("data holds ", data.size(), " bytes after a zstd frame of ", frame_size,
                          ". Violated constraint: exactly one zstd frame");
       }
-      decompressed.resize(static_cast<size_t>(expected_bytes));
+      std::string decompressed(static_cast<size_t>(expected_bytes), '\0');
       const size_t size =
           ZSTD_decompress(decompressed.data(), decompressed.size(), data.data(), data.size());
       if (ZSTD_isError(size)) {
@@ -355,16 +363,28 @@ absl::StatusOr<std::vector<float>> DecodeImage(const v1::Image& image) {
                          " bytes. Violated constraint: width * height * ", bytes_per_pixel, " = ",
                          expected_bytes);
       }
-      bytes = reinterpret_cast<const unsigned char*>(decompressed.data());
-      break;
+      return decompressed;
     }
     default:
       return data_loss("compression=", static_cast<int>(image.compression()),
                        ". Violated constraint: COMPRESSION_NONE or ZSTD");
   }
+}
 
-  std::vector<float> values(static_cast<size_t>(pixels));
-  if (encoding == "32FC1") {
+}  // namespace
+
+absl::StatusOr<std::vector<float>> DecodeImage(const v1::Image& image) {
+  const std::string& encoding = image.encoding();
+  absl::StatusOr<WireLayout> layout = LayoutOf(encoding);
+  if (!layout.ok()) {
+    return absl::DataLossError(
+        absl::StrCat("image \"", image.name(), "\": ", layout.status().message()));
+  }
+  absl::StatusOr<std::string> raw = ImageBytes(image, *layout);
+  if (!raw.ok()) return raw.status();
+  const auto* bytes = reinterpret_cast<const unsigned char*>(raw->data());
+  std::vector<float> values(raw->size() / layout->bytes_per_channel);
+  if (encoding == "32FC1" || encoding == "32FC4") {
     for (size_t i = 0; i < values.size(); ++i) {
       values[i] = std::bit_cast<float>(LoadLe32(bytes + 4 * i));
     }
@@ -376,10 +396,101 @@ absl::StatusOr<std::vector<float>> DecodeImage(const v1::Image& image) {
       values[i] = mm == 0 ? std::nanf("")
                           : static_cast<float>(mm / kMillimetresPerMetre);
     }
+  } else if (encoding == "16UC4") {  // codes, exact in float
+    for (size_t i = 0; i < values.size(); ++i) values[i] = LoadLe16(bytes + 2 * i);
   } else {  // 8UC1
     for (size_t i = 0; i < values.size(); ++i) values[i] = static_cast<float>(bytes[i]);
   }
   return values;
+}
+
+int ImageChannels(const v1::Image& image) {
+  absl::StatusOr<WireLayout> layout = LayoutOf(image.encoding());
+  return layout.ok() ? static_cast<int>(layout->channels) : 0;
+}
+
+absl::Status EncodeMomentDepth(const MomentDepthMap& map, bool from_returns,
+                               const PixelRect& rect, v1::Compression compression,
+                               v1::Image* out) {
+  const ImageGeometry sensor = map.geometry;
+  assert(RectInside(rect, sensor));
+  const bool optimized = map.options.format == MomentMapFormat::kOptimized64;
+  const int bytes_per_channel = optimized ? 2 : 4;
+  const size_t texel_values = static_cast<size_t>(sensor.pixel_count()) * 4;
+  if ((optimized ? map.quantized.size() : map.moments.size()) != texel_values) {
+    return absl::InternalError(absl::StrCat("moment depth map of ", sensor.width, "x",
+                                            sensor.height, " holds no texels of its format"));
+  }
+  std::string raw(static_cast<size_t>(rect.pixel_count()) * 4 * bytes_per_channel, '\0');
+  char* write = raw.data();
+  for (int row = rect.y; row < rect.y + rect.height; ++row) {
+    const size_t first = (static_cast<size_t>(row) * sensor.width + rect.x) * 4;
+    for (size_t i = first; i < first + static_cast<size_t>(rect.width) * 4; ++i) {
+      if (optimized) {
+        StoreLe16(map.quantized[i], write);
+      } else {
+        StoreLe32(std::bit_cast<uint32_t>(map.moments[i]), write);
+      }
+      write += bytes_per_channel;
+    }
+  }
+  if (absl::Status status = SetData(std::move(raw), compression, out); !status.ok()) {
+    return status;
+  }
+  SetGeometry(rect, 4 * bytes_per_channel, optimized ? "16UC4" : "32FC4", out);
+  v1::MomentDepthInfo* info = out->mutable_moment_depth();
+  const MomentBias bias = optimized ? kQuantized16MomentBias : kFloatMomentBias;
+  info->set_near_m(map.options.normalisation.near_m);
+  info->set_far_m(map.options.normalisation.far_m);
+  info->set_sigma_px(map.options.sigma_px);
+  info->set_bits(optimized ? 64 : 128);
+  info->set_from_returns(from_returns);
+  info->set_bias_alpha(bias.alpha);
+  info->set_bias_b_star(bias.b_star_even);
+  info->set_empty_pixels(static_cast<uint64_t>(map.empty_texels));
+  info->set_clamped_depths(static_cast<uint64_t>(map.clamped_depths));
+  return absl::OkStatus();
+}
+
+absl::StatusOr<MomentDepthMap> DecodeMomentDepth(const v1::Image& image) {
+  const auto data_loss = [&image](auto&&... parts) {
+    return absl::DataLossError(absl::StrCat("image \"", image.name(), "\": ", parts...));
+  };
+  if (!image.has_moment_depth()) {
+    return data_loss("no moment_depth info. Violated constraint: MOMENT_DEPTH images carry it");
+  }
+  const v1::MomentDepthInfo& info = image.moment_depth();
+  MomentDepthMap map;
+  map.options.normalisation = {.near_m = info.near_m(), .far_m = info.far_m()};
+  map.options.sigma_px = info.sigma_px();
+  if (info.bits() == 64 && image.encoding() == "16UC4") {
+    map.options.format = MomentMapFormat::kOptimized64;
+  } else if (info.bits() == 128 && image.encoding() == "32FC4") {
+    map.options.format = MomentMapFormat::kFloat128;
+  } else {
+    return data_loss("bits=", info.bits(), " with encoding=\"", image.encoding(),
+                     "\". Violated constraint: 64 with 16UC4 or 128 with 32FC4");
+  }
+  if (absl::Status status = map.options.Validate(); !status.ok()) {
+    return data_loss("moment_depth: ", status.message());
+  }
+  absl::StatusOr<std::vector<float>> values = DecodeImage(image);
+  if (!values.ok()) return values.status();
+  map.geometry = {static_cast<int>(image.width()), static_cast<int>(image.height())};
+  if (map.options.format == MomentMapFormat::kOptimized64) {
+    map.quantized.assign(values->begin(), values->end());  // codes 0..65535, exact in float
+  } else {
+    for (size_t i = 0; i < values->size(); ++i) {
+      if (!std::isfinite((*values)[i])) {
+        return data_loss("moment ", i % 4 + 1, " of pixel ", i / 4, " is ", (*values)[i],
+                         ". Violated constraint: finite");
+      }
+    }
+    map.moments = *std::move(values);
+  }
+  map.empty_texels = static_cast<int64_t>(info.empty_pixels());
+  map.clamped_depths = static_cast<int64_t>(info.clamped_depths());
+  return map;
 }
 
 // Bit layouts: float is 1 sign, 8 exponent (bias 127), 23 mantissa bits; half is 1 sign,

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <set>
 #include <utility>
 
 #include "absl/strings/match.h"
@@ -610,6 +611,11 @@ ProductNeeds Pipeline::Impl::CurrentNeeds() {
     needs.products |= r.products;
     if (r.products.Has(v1::SLICES)) needs.slice_phases[r.slice_phases].density = true;
     if (r.products.Has(v1::CUMULATIVE)) needs.slice_phases[r.slice_phases].cumulative = true;
+    if (r.products.Has(v1::MOMENT_DEPTH) &&
+        std::find(needs.moment_depth.begin(), needs.moment_depth.end(), r.moment_depth) ==
+            needs.moment_depth.end()) {
+      needs.moment_depth.push_back(r.moment_depth);
+    }
   }
   return needs;
 }
@@ -893,6 +899,20 @@ absl::StatusOr<std::shared_ptr<Subscription>> Pipeline::Subscribe(std::string pe
           "slices: with this request the daemon would compute ", bytes >> 20,
           " MiB of slices per frame for all streams together; at most ",
           kMaxSliceBytesAllStreams >> 20, " MiB (ask for the slice lists other streams use)"));
+    }
+  }
+  // Moment depth maps are computed once per distinct spec for all subscribers: bound them.
+  if (request.products.Has(v1::MOMENT_DEPTH)) {
+    std::set<MomentDepthSpec> specs = {request.moment_depth};
+    for (const auto& s : impl_->subscriptions) {
+      if (s->request().products.Has(v1::MOMENT_DEPTH)) specs.insert(s->request().moment_depth);
+    }
+    if (specs.size() > static_cast<size_t>(kMaxMomentDepthSpecs)) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "moment_depth: with this request the daemon would compute ", specs.size(),
+          " different moment depth maps per frame; at most ", kMaxMomentDepthSpecs,
+          " (ask for the near_m, far_m, sigma_px, ",
+          "bits and from_returns other streams use)"));
     }
   }
   auto subscription = std::make_shared<Subscription>(impl_->next_subscription_id++,

@@ -1,6 +1,7 @@
 #include "transient/service/products.h"
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <utility>
 
@@ -11,6 +12,7 @@ namespace transient::service {
 namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
+constexpr double kSpeedOfLight = 299792458.0;
 
 std::vector<float> ZerothPlane(const SolvedImage& solved) {
   const int64_t pixels = solved.geometry.pixel_count();
@@ -22,19 +24,51 @@ std::vector<float> ZerothPlane(const SolvedImage& solved) {
   return c0;
 }
 
-// Z = range * cos(angle between the pixel's ray and the optical axis), pinhole model.
+// cos(angle between pixel p's ray and the optical axis), pinhole model: Z = range * this.
+double RangeToDepthFactor(const CameraInfo& camera, int64_t p) {
+  const int width = camera.geometry.width;
+  const double u = (p % width - camera.cx) / camera.fx;
+  const double v = (p / width - camera.cy) / camera.fy;
+  return 1.0 / std::sqrt(u * u + v * v + 1.0);
+}
+
 std::vector<float> DepthFromRange(std::span<const float> range_m, const CameraInfo& camera) {
-  const ImageGeometry g = camera.geometry;
   std::vector<float> depth(range_m.size());
-  for (int y = 0; y < g.height; ++y) {
-    const double v = (y - camera.cy) / camera.fy;
-    for (int x = 0; x < g.width; ++x) {
-      const double u = (x - camera.cx) / camera.fx;
-      const int64_t p = int64_t{y} * g.width + x;
-      depth[p] = static_cast<float>(range_m[p] / std::sqrt(u * u + v * v + 1.0));
-    }
+  for (size_t p = 0; p < range_m.size(); ++p) {
+    depth[p] = static_cast<float>(range_m[p] * RangeToDepthFactor(camera, static_cast<int64_t>(p)));
   }
   return depth;
+}
+
+// The Pisarenko returns of every pixel as depths and weights (planar, m planes, as
+// MomentDepthMapBuilder::BuildFromReturns takes them): a return's phase is its range
+// (c phi / (4 pi f)), its depth that times the ray factor. Returns weaker than `threshold` times
+// the pixel's largest weight, NaN padding and invalid pixels get weight 0 (left out).
+void ReturnsAsDepth(const PisarenkoImage& pisarenko, const CameraInfo& camera,
+                    double base_frequency_hz, double threshold, std::vector<float>* depth_m,
+                    std::vector<float>* weight) {
+  const int64_t pixels = pisarenko.geometry.pixel_count();
+  const int m = pisarenko.order;
+  const double metres_per_radian = kSpeedOfLight / (4.0 * std::numbers::pi * base_frequency_hz);
+  depth_m->assign(static_cast<size_t>(m * pixels), std::numeric_limits<float>::quiet_NaN());
+  weight->assign(static_cast<size_t>(m * pixels), 0.0f);
+  for (int64_t p = 0; p < pixels; ++p) {
+    float largest = 0.0f;
+    for (int r = 0; r < m; ++r) {
+      const float w = pisarenko.weight[r * pixels + p];
+      if (w > largest) largest = w;  // false for NaN
+    }
+    if (!(largest > 0.0f)) continue;
+    const double factor = RangeToDepthFactor(camera, p);
+    for (int r = 0; r < m; ++r) {
+      const size_t i = static_cast<size_t>(r * pixels + p);
+      const float w = pisarenko.weight[i];
+      const float phase = pisarenko.phase[i];
+      if (!(w >= threshold * largest) || !std::isfinite(phase)) continue;
+      (*depth_m)[i] = static_cast<float>(phase * metres_per_radian * factor);
+      (*weight)[i] = w;
+    }
+  }
 }
 
 }  // namespace
@@ -60,6 +94,7 @@ const char* ProductName(v1::Product product) {
     case v1::SLICES: return "slices";
     case v1::CUMULATIVE: return "cumulative";
     case v1::DIRECT_INDIRECT: return "direct_indirect";
+    case v1::MOMENT_DEPTH: return "moment_depth";
     default: return "unspecified";
   }
 }
@@ -126,6 +161,45 @@ absl::StatusOr<std::vector<double>> ResolveSlicePhases(const v1::SliceSpec& spec
   return phases;
 }
 
+absl::StatusOr<MomentDepthSpec> ResolveMomentDepthSpec(const v1::MomentDepthRequest& request,
+                                                       ImageGeometry sensor,
+                                                       double unambiguous_range_m) {
+  MomentDepthSpec spec;
+  if (request.near_m() == 0.0 && request.far_m() == 0.0) {
+    spec.far_m = unambiguous_range_m;
+  } else {
+    if (!std::isfinite(request.near_m()) || request.near_m() < 0.0) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "moment_depth.near_m = ", request.near_m(), ": expected a finite depth >= 0 m"));
+    }
+    if (!std::isfinite(request.far_m()) || !(request.far_m() > request.near_m())) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("moment_depth.far_m = ", request.far_m(),
+                       ": expected a finite depth above near_m = ", request.near_m(), " m"));
+    }
+    spec.near_m = request.near_m();
+    spec.far_m = request.far_m();
+  }
+  if (request.has_sigma_px()) spec.sigma_px = request.sigma_px();
+  switch (request.bits()) {
+    case 0:
+    case 64: spec.format = MomentMapFormat::kOptimized64; break;
+    case 128: spec.format = MomentMapFormat::kFloat128; break;
+    default:
+      return absl::InvalidArgumentError(absl::StrCat(
+          "moment_depth.bits = ", request.bits(), ": expected 64 (16UC4) or 128 (32FC4)"));
+  }
+  spec.from_returns = request.from_returns();
+  // Validates sigma and the filter's width against the sensor, with messages naming them.
+  absl::StatusOr<MomentDepthMapBuilder> builder =
+      MomentDepthMapBuilder::Create(sensor, spec.MapOptions());
+  if (!builder.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("moment_depth: ", builder.status().message()));
+  }
+  return spec;
+}
+
 std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const SolvedImage> solved,
                                                      const CameraInfo& camera,
                                                      const ProductOptions& options,
@@ -141,8 +215,15 @@ std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const Solve
   out->flags = s.flags;
 
   const ProductSet& p = needs.products;
-  const bool need_range = p.Has(v1::RANGE) || p.Has(v1::DEPTH);
-  const bool need_pisarenko = p.Has(v1::DIRECT_INDIRECT) ||
+  bool moments_of_depth = false, moments_of_returns = false;
+  if (p.Has(v1::MOMENT_DEPTH)) {
+    for (const MomentDepthSpec& spec : needs.moment_depth) {
+      (spec.from_returns ? moments_of_returns : moments_of_depth) = true;
+    }
+  }
+  const bool need_depth = p.Has(v1::DEPTH) || moments_of_depth;
+  const bool need_range = p.Has(v1::RANGE) || need_depth;
+  const bool need_pisarenko = p.Has(v1::DIRECT_INDIRECT) || moments_of_returns ||
                               (need_range && options.range_method == RangeMethod::kPisarenko);
   if (need_pisarenko) {
     out->pisarenko = std::make_shared<const PisarenkoImage>(EstimatePisarenko(s));
@@ -156,7 +237,7 @@ std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const Solve
     } else {
       MeseRange(s, range_options, out->range_m, out->flags);
     }
-    if (p.Has(v1::DEPTH)) out->depth_m = DepthFromRange(out->range_m, camera);
+    if (need_depth) out->depth_m = DepthFromRange(out->range_m, camera);
   }
   if (p.Has(v1::AMPLITUDE)) {
     out->amplitude.resize(pixels);
@@ -177,6 +258,25 @@ std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const Solve
     if (need.cumulative) {
       images.cumulative.resize(phases.size() * pixels);
       CumulativeSlices(s, phases, images.cumulative);
+    }
+  }
+  if (p.Has(v1::MOMENT_DEPTH)) {
+    std::vector<float> return_depth, return_weight;
+    if (moments_of_returns) {
+      ReturnsAsDepth(*out->pisarenko, camera, options.base_frequency_hz, options.threshold,
+                     &return_depth, &return_weight);
+    }
+    for (const MomentDepthSpec& spec : needs.moment_depth) {
+      absl::StatusOr<MomentDepthMapBuilder> builder =
+          MomentDepthMapBuilder::Create(s.geometry, spec.MapOptions());
+      if (!builder.ok()) continue;  // ResolveMomentDepthSpec refused such specs
+      auto map = std::make_shared<MomentDepthMap>();
+      const absl::Status status =
+          spec.from_returns
+              ? builder->BuildFromReturns(out->pisarenko->order, return_depth, return_weight,
+                                          map.get())
+              : builder->Build(out->depth_m, map.get());
+      if (status.ok()) out->moment_depth[spec] = std::move(map);
     }
   }
   out->solved = std::move(solved);

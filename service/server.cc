@@ -114,6 +114,13 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
     if (!phases.ok()) return phases.status();
     plan.request.slice_phases = *std::move(phases);
   }
+  if (plan.request.products.Has(v1::MOMENT_DEPTH)) {
+    const double base_frequency_hz = pipeline.schedule().options().base_frequency_hz;
+    absl::StatusOr<MomentDepthSpec> spec = ResolveMomentDepthSpec(
+        r.moment_depth(), sensor, kSpeedOfLight / (2.0 * base_frequency_hz));
+    if (!spec.ok()) return spec.status();
+    plan.request.moment_depth = *spec;
+  }
   // A client that stops reading holds its queue: bound what that can keep alive.
   int64_t planes = 0;
   for (v1::Product product : plan.products) {
@@ -122,6 +129,7 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
       case v1::SLICES:
       case v1::CUMULATIVE: planes += static_cast<int64_t>(plan.request.slice_phases.size()); break;
       case v1::DIRECT_INDIRECT: planes += 2; break;
+      case v1::MOMENT_DEPTH: planes += 4; break;
       default: planes += 1;
     }
   }
@@ -232,6 +240,21 @@ absl::StatusOr<bool> EncodeProducts(const StreamPlan& plan, const FrameProducts&
               AddFloat(plan, products, products.indirect, product, "indirect", "sensor", frame);
         }
         break;
+      case v1::MOMENT_DEPTH: {
+        auto it = products.moment_depth.find(plan.request.moment_depth);
+        if (it == products.moment_depth.end()) return false;
+        v1::Image* image = frame->add_images();
+        if (absl::Status status =
+                EncodeMomentDepth(*it->second, plan.request.moment_depth.from_returns, plan.rect,
+                                  plan.compression, image);
+            !status.ok()) {
+          return status;
+        }
+        image->set_name("moment_depth");
+        image->set_product(product);
+        image->set_unit("1");
+        break;
+      }
       default:
         return absl::InternalError(absl::StrCat("unplanned product ", product));
     }

@@ -1,6 +1,6 @@
-// The moment depth map per frame at 640 x 480 (issue 7's budget: <= 5 ms on two cores): depth
-// image -> power moments b1..b4 (float planes) -> GaussianMomentFilter -> optimized 64-bit
-// quantization (eq. 4.4) of every pixel; and OcclusionFraction queries per second (target 1e8).
+// The moment depth map per frame at 640 x 480 (issue 7's budget: <= 5 ms on two cores):
+// MomentDepthMapBuilder::Build in both formats; and OcclusionFraction queries per second
+// (target 1e8), one at a time and batched (OcclusionFractions).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -9,15 +9,13 @@
 #include <vector>
 
 #include "transient/reconstruct/kernels.h"
-#include "transient/reconstruct/moment_filter.h"
-#include "transient/reconstruct/moment_quantization.h"
+#include "transient/reconstruct/moment_depth_map.h"
 #include "transient/reconstruct/power_moments.h"
 
 namespace transient {
 namespace {
 
 constexpr ImageGeometry kGeometry{640, 480};
-constexpr int kChannels = 4;
 constexpr DepthNormalisation kRange{.near_m = 0.5, .far_m = 4.5};
 
 // A depth image of a few planes at different depths with 1% invalid (NaN) pixels.
@@ -35,51 +33,39 @@ std::vector<float> DepthImage() {
   return depth;
 }
 
-// Argument: sigma in px, threads.
+// MomentDepthMapBuilder::Build, the per-frame path of the MOMENT_DEPTH product: depth ->
+// coverage-weighted power moments (float) -> GaussianMomentFilter -> division by the filtered
+// coverage and quantization. Arguments: format (0 = kOptimized64, 1 = kFloat128), sigma in px,
+// threads.
 void BM_MomentDepthFrame(benchmark::State& state) {
-  const int threads = static_cast<int>(state.range(1));
+  const MomentMapFormat format =
+      state.range(0) == 0 ? MomentMapFormat::kOptimized64 : MomentMapFormat::kFloat128;
+  const int threads = static_cast<int>(state.range(2));
   SetKernelOptions({.kind = KernelKind::kOptimized, .threads = threads});
   const std::vector<float> depth = DepthImage();
-  const int64_t pixels = kGeometry.pixel_count();
-  std::vector<float> planes(static_cast<size_t>(kChannels * pixels)), filtered(planes.size());
-  std::vector<QuantizedMoments64> quantized(static_cast<size_t>(pixels));
-  absl::StatusOr<GaussianMomentFilter> filter =
-      GaussianMomentFilter::Create(static_cast<double>(state.range(0)), kGeometry, kChannels);
-  if (!filter.ok()) {
-    state.SkipWithError(filter.status().ToString().c_str());
+  absl::StatusOr<MomentDepthMapBuilder> builder = MomentDepthMapBuilder::Create(
+      kGeometry,
+      {.normalisation = kRange, .sigma_px = static_cast<double>(state.range(1)), .format = format});
+  if (!builder.ok()) {
+    state.SkipWithError(builder.status().ToString().c_str());
     return;
   }
-  const float scale = static_cast<float>(2.0 / (kRange.far_m - kRange.near_m));
-  const float offset = static_cast<float>(-1.0 - 2.0 * kRange.near_m / (kRange.far_m - kRange.near_m));
+  MomentDepthMap map;
   for (auto _ : state) {
-    // Moments in float; an invalid pixel takes the far plane (z̄ = 1), which occludes nothing.
-#pragma omp parallel for num_threads(threads)
-    for (int64_t p = 0; p < pixels; ++p) {
-      const float d = depth[static_cast<size_t>(p)];
-      const float z = d == d ? std::clamp(std::fma(d, scale, offset), -1.0f, 1.0f) : 1.0f;
-      const float z2 = z * z;
-      planes[static_cast<size_t>(p)] = z;
-      planes[static_cast<size_t>(pixels + p)] = z2;
-      planes[static_cast<size_t>(2 * pixels + p)] = z2 * z;
-      planes[static_cast<size_t>(3 * pixels + p)] = z2 * z2;
+    const absl::Status status = builder->Build(depth, &map);
+    if (!status.ok()) {
+      state.SkipWithError(status.ToString().c_str());
+      return;
     }
-    benchmark::DoNotOptimize(filter->Apply(planes, filtered));
-#pragma omp parallel for num_threads(threads)
-    for (int64_t p = 0; p < pixels; ++p) {
-      const PowerMoments b = {1.0, filtered[static_cast<size_t>(p)],
-                              filtered[static_cast<size_t>(pixels + p)],
-                              filtered[static_cast<size_t>(2 * pixels + p)],
-                              filtered[static_cast<size_t>(3 * pixels + p)]};
-      EncodeOptimized64(b, &quantized[static_cast<size_t>(p)]);
-    }
-    benchmark::DoNotOptimize(quantized.data());
+    benchmark::DoNotOptimize(map.quantized.data());
+    benchmark::DoNotOptimize(map.moments.data());
     benchmark::ClobberMemory();
   }
-  state.SetItemsProcessed(state.iterations() * pixels);
+  state.SetItemsProcessed(state.iterations() * kGeometry.pixel_count());
 }
 BENCHMARK(BM_MomentDepthFrame)
-    ->ArgNames({"sigma", "threads"})
-    ->ArgsProduct({{1, 2}, {1, 2}})
+    ->ArgNames({"float128", "sigma", "threads"})
+    ->ArgsProduct({{0, 1}, {1, 2}, {1, 2}})
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 
@@ -113,11 +99,25 @@ void BM_OcclusionFraction(benchmark::State& state) {
   const Queries q = MakeQueries();
   const size_t n = q.moments.size();
   for (auto _ : state) {
-    for (size_t i = 0; i < n; ++i) benchmark::DoNotOptimize(OcclusionFraction(q.moments[i], q.z_f[i]));
+    for (size_t i = 0; i < n; ++i)
+      benchmark::DoNotOptimize(OcclusionFraction(q.moments[i], q.z_f[i]));
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * n));
 }
 BENCHMARK(BM_OcclusionFraction);
+
+// The batched form (AVX2 + FMA, eight queries per instruction), one thread.
+void BM_OcclusionFractions(benchmark::State& state) {
+  const Queries q = MakeQueries();
+  std::vector<float> out(q.moments.size());
+  for (auto _ : state) {
+    OcclusionFractions(q.moments, q.z_f, out);
+    benchmark::DoNotOptimize(out.data());
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * q.moments.size()));
+}
+BENCHMARK(BM_OcclusionFractions);
 
 }  // namespace
 }  // namespace transient

@@ -10,6 +10,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <string>
@@ -122,10 +123,10 @@ TEST(ResolveRoi, EmptySensorIsRejected) {
 // ---------------------------------------------------------------------------------------------
 // CheckEncoding, EncodingName
 
-TEST(CheckEncoding, MillimetresOnlyForLengthsAndFlagsAcceptAnything) {
+TEST(CheckEncoding, MillimetresOnlyForLengthsAndFlagsAndMomentDepthAcceptAnything) {
   const std::vector<v1::Product> products = {
       v1::RANGE,        v1::DEPTH,  v1::AMPLITUDE,  v1::C0,          v1::FLAGS,
-      v1::MOMENT_STATE, v1::SLICES, v1::CUMULATIVE, v1::DIRECT_INDIRECT};
+      v1::MOMENT_STATE, v1::SLICES, v1::CUMULATIVE, v1::DIRECT_INDIRECT, v1::MOMENT_DEPTH};
   const std::vector<v1::Encoding> encodings = {v1::ENCODING_UNSPECIFIED, v1::FLOAT32,
                                                v1::FLOAT16, v1::UINT16_MM};
   ASSERT_EQ(products.size(), static_cast<size_t>(v1::Product_ARRAYSIZE - 1));
@@ -134,7 +135,8 @@ TEST(CheckEncoding, MillimetresOnlyForLengthsAndFlagsAcceptAnything) {
     for (v1::Encoding encoding : encodings) {
       SCOPED_TRACE(v1::Product_Name(product) + " as " + v1::Encoding_Name(encoding));
       const bool allowed = encoding != v1::UINT16_MM || product == v1::RANGE ||
-                           product == v1::DEPTH || product == v1::FLAGS;
+                           product == v1::DEPTH || product == v1::FLAGS ||
+                           product == v1::MOMENT_DEPTH;
       if (allowed) {
         EXPECT_THAT(CheckEncoding(product, encoding), IsOk());
       } else {
@@ -690,6 +692,85 @@ TEST(DecodeImage, RandomCorruptionIsEitherDecodedOrDataLoss) {
       }
     }
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// EncodeMomentDepth / DecodeMomentDepth
+
+// A 163x120 moment depth map of a slanted plane, built by the library.
+MomentDepthMap SlantedPlaneMap(MomentMapFormat format) {
+  std::vector<float> depth(static_cast<size_t>(kSensor.pixel_count()));
+  for (int64_t p = 0; p < kSensor.pixel_count(); ++p) {
+    depth[p] = 1.0f + 0.02f * static_cast<float>(p % kSensor.width);
+  }
+  depth[5] = kNan;  // one invalid pixel
+  MomentDepthMap map;
+  absl::StatusOr<MomentDepthMapBuilder> builder = MomentDepthMapBuilder::Create(
+      kSensor, {.normalisation = {.near_m = 0.5, .far_m = 5.0}, .sigma_px = 1.0, .format = format});
+  EXPECT_THAT(builder.status(), IsOk());
+  if (builder.ok()) EXPECT_THAT(builder->Build(depth, &map), IsOk());
+  return map;
+}
+
+TEST(EncodeMomentDepth, RoundTripsBothFormatsThroughTheRoiWithAndWithoutZstd) {
+  const PixelRect rect{.x = 10, .y = 7, .width = 50, .height = 31};
+  for (MomentMapFormat format : {MomentMapFormat::kOptimized64, MomentMapFormat::kFloat128}) {
+    const MomentDepthMap map = SlantedPlaneMap(format);
+    for (v1::Compression compression : {v1::COMPRESSION_NONE, v1::ZSTD}) {
+      v1::Image image;
+      ASSERT_THAT(EncodeMomentDepth(map, true, rect, compression, &image), IsOk());
+      const bool optimized = format == MomentMapFormat::kOptimized64;
+      EXPECT_EQ(image.encoding(), optimized ? "16UC4" : "32FC4");
+      EXPECT_EQ(image.step(), 50u * (optimized ? 8u : 16u));
+      EXPECT_EQ(image.moment_depth().bits(), optimized ? 64u : 128u);
+      EXPECT_TRUE(image.moment_depth().from_returns());
+      EXPECT_DOUBLE_EQ(image.moment_depth().near_m(), 0.5);
+      EXPECT_DOUBLE_EQ(image.moment_depth().far_m(), 5.0);
+      EXPECT_EQ(ImageChannels(image), 4);
+      absl::StatusOr<MomentDepthMap> decoded = DecodeMomentDepth(image);
+      ASSERT_THAT(decoded.status(), IsOk());
+      EXPECT_EQ(decoded->geometry, (ImageGeometry{50, 31}));
+      for (int y = 0; y < rect.height; ++y) {
+        for (int x = 0; x < rect.width; ++x) {
+          EXPECT_EQ(decoded->Texel(x, y), map.Texel(rect.x + x, rect.y + y)) << x << "," << y;
+          EXPECT_EQ(decoded->Occlusion(x, y, 1.5), map.Occlusion(rect.x + x, rect.y + y, 1.5));
+        }
+      }
+    }
+  }
+}
+
+TEST(DecodeMomentDepth, MissingInfoMismatchedBitsBadRangeAndNanMomentsAreDataLoss) {
+  const PixelRect whole{.x = 0, .y = 0, .width = kSensor.width, .height = kSensor.height};
+  v1::Image valid;
+  ASSERT_THAT(EncodeMomentDepth(SlantedPlaneMap(MomentMapFormat::kFloat128), false, whole,
+                                v1::COMPRESSION_NONE, &valid),
+              IsOk());
+  v1::Image image = valid;
+  image.clear_moment_depth();
+  EXPECT_THAT(DecodeMomentDepth(image).status(),
+              StatusIs(absl::StatusCode::kDataLoss, HasSubstr("no moment_depth info")));
+  image = valid;
+  image.mutable_moment_depth()->set_bits(64);
+  EXPECT_THAT(DecodeMomentDepth(image).status(),
+              StatusIs(absl::StatusCode::kDataLoss, HasSubstr("bits=64 with encoding=\"32FC4\"")));
+  image = valid;
+  image.mutable_moment_depth()->set_far_m(0.1);
+  EXPECT_THAT(DecodeMomentDepth(image).status(),
+              StatusIs(absl::StatusCode::kDataLoss, HasSubstr("moment_depth: ")));
+  image = valid;
+  const uint32_t nan_bits = std::bit_cast<uint32_t>(kNan);
+  std::memcpy(image.mutable_data()->data() + 4 * 4 * 7 + 4, &nan_bits, 4);  // b2 of pixel 7
+  EXPECT_THAT(DecodeMomentDepth(image).status(),
+              StatusIs(absl::StatusCode::kDataLoss, HasSubstr("moment 2 of pixel 7 is nan")));
+  image = valid;
+  image.mutable_data()->resize(image.data().size() - 3);
+  EXPECT_THAT(DecodeMomentDepth(image).status(),
+              StatusIs(absl::StatusCode::kDataLoss, HasSubstr("data holds")));
+  image = valid;
+  image.set_step(kSensor.width * 4);  // one float per pixel: not 32FC4
+  EXPECT_THAT(DecodeMomentDepth(image).status(),
+              StatusIs(absl::StatusCode::kDataLoss, HasSubstr("step=")));
 }
 
 }  // namespace

@@ -99,7 +99,7 @@ TEST(Server, GetInfoDescribesSensorScheduleAndCalibration) {
   EXPECT_DOUBLE_EQ(info.schedule().base_frequency_hz(), 23e6);
   EXPECT_EQ(info.schedule().raw_frames_per_frame(), 14u);
   EXPECT_EQ(info.calibration(), "none");
-  EXPECT_EQ(info.products_size(), 9);
+  EXPECT_EQ(info.products_size(), 10);
   EXPECT_EQ(info.version(), "test");
   EXPECT_NEAR(info.unambiguous_range_m(), 6.517, 1e-3);
 }

@@ -130,6 +130,31 @@ TEST(ClientArgs, BadNumbersAreRefusedNamingTheOption) {
   EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--out")));
 }
 
+TEST(ClientArgs, BadMomentDepthOptionsAreRefusedNamingTheOption) {
+  ClientArgs args = GoodArgs();
+  args.products = {"moment_depth"};
+  EXPECT_THAT(args.Validate(), IsOk());
+  args.moment_near_m = -1.0;
+  args.moment_far_m = 3.0;
+  EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
+                                        HasSubstr("--moment-near = -1")));
+  args.moment_near_m = 3.0;
+  EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
+                                        HasSubstr("--moment-far = 3: expected a depth above")));
+  args = GoodArgs();
+  args.moment_sigma_px = -0.5;
+  EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
+                                        HasSubstr("--moment-sigma = -0.5")));
+  args = GoodArgs();
+  args.moment_bits = 32;
+  EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
+                                        HasSubstr("--moment-bits = 32: expected 64 or 128")));
+  args = GoodArgs();
+  args.virtual_plane_m = kNan;
+  EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
+                                        HasSubstr("--virtual-plane = nan")));
+}
+
 TEST(ClientArgs, EncodingMustBeKnownAndMillimetresOnlyForLengths) {
   ClientArgs args = GoodArgs();
   args.encoding = "float64";
@@ -368,6 +393,57 @@ TEST(RunClient, ReceivesTheAskedFramesAndWritesTheLastOne) {
                                            ", \"p90\": ")));
   EXPECT_THAT(json, HasSubstr("\"slice_time_of_flight_ns\": [0, 2.717391304, "));
   EXPECT_THAT(json, HasSubstr("\"stream_error\": null"));
+}
+
+// A renderer's use of MOMENT_DEPTH: the client receives the map and computes the occlusion of a
+// virtual plane. In front of the whole scene the plane is visible everywhere, behind it hidden
+// wherever the scene has depth, and through the scene partly hidden; the 8-bit picture says the
+// same as the summary.
+TEST(RunClient, ReceivesMomentDepthAndComputesTheOcclusionOfAVirtualPlane) {
+  Daemon daemon(kSmallSim);
+  ScratchDirectory dir;
+  struct Case {
+    double plane_m;
+    double min_share, max_share;
+  };
+  // The mirrors scene lies between 2.1 and 2.8 m (measured), and ~90% of its pixels have depth.
+  for (const Case& c : {Case{0.6, 0.0, 0.001}, Case{2.3, 0.3, 0.95}, Case{6.0, 0.8, 1.0}}) {
+    SCOPED_TRACE(absl::StrCat("plane at ", c.plane_m, " m"));
+    const std::string out = dir.File(absl::StrCat("plane_", c.plane_m));
+    ClientArgs args = GoodArgs(out);
+    args.connect = daemon.address();
+    args.products = {"moment_depth"};
+    args.frames = 1;
+    args.moment_near_m = 0.5;
+    args.moment_far_m = 6.5;
+    args.moment_bits = 128;
+    args.moment_sigma_px = 1.0;
+    args.virtual_plane_m = c.plane_m;
+    const absl::StatusOr<ClientSummary> summary = RunClient(args);
+    ASSERT_THAT(summary.status(), IsOk());
+    ASSERT_TRUE(summary->moment_depth.has_value());
+    const ClientSummary::MomentDepth& m = *summary->moment_depth;
+    EXPECT_EQ(m.bits, 128);
+    EXPECT_DOUBLE_EQ(m.near_m, 0.5);
+    EXPECT_DOUBLE_EQ(m.far_m, 6.5);
+    EXPECT_DOUBLE_EQ(m.sigma_px, 1.0);
+    EXPECT_DOUBLE_EQ(m.virtual_plane_m, c.plane_m);
+    EXPECT_GE(m.occluded_share, c.min_share);
+    EXPECT_LE(m.occluded_share, c.max_share);
+    EXPECT_THAT(summary->files, ::testing::IsSupersetOf({"moment_depth/b1.tiff", "moment_depth/b4.tiff",
+                                                       "moment_depth/occlusion_plane.png"}));
+    const testing::RawPng png = testing::ReadPng(out + "/moment_depth/occlusion_plane.png");
+    EXPECT_EQ(png.width, static_cast<uint32_t>(kSimWidth));
+    EXPECT_EQ(png.height, static_cast<uint32_t>(kSimHeight));
+    double mean = 0.0;
+    for (uint8_t v : png.bytes) mean += v / 255.0;
+    mean /= static_cast<double>(png.bytes.size());
+    EXPECT_NEAR(mean, m.occluded_share, 0.5 / 255.0 + 1e-9);
+    const std::vector<float> b1 = ReadTiff(out + "/moment_depth/b1.tiff");
+    ASSERT_EQ(b1.size(), static_cast<size_t>(kSimWidth * kSimHeight));
+    for (float v : b1) EXPECT_TRUE(v >= -1.0f && v <= 1.0f) << v;
+    EXPECT_THAT(Slurp(out + "/summary.json"), HasSubstr("\"moment_depth\": {\"bits\": 128"));
+  }
 }
 
 TEST(RunClient, RangeAloneAlsoWritesMillimetres) {
@@ -666,7 +742,7 @@ TEST(TransientClientBinary, BadProductExitsWithTwoAndOneErrorLine) {
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_EQ(result.output,
             "error: --products: unknown product 'bogus'; valid: range, depth, amplitude, c0, "
-            "flags, moment_state, slices, cumulative, direct_indirect\n");
+            "flags, moment_state, slices, cumulative, direct_indirect, moment_depth\n");
 }
 
 TEST(TransientClientBinary, UnreachableDaemonExitsWithOne) {

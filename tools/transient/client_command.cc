@@ -47,7 +47,7 @@ constexpr ProductName kProducts[] = {
     {"amplitude", v1::AMPLITUDE}, {"c0", v1::C0},
     {"flags", v1::FLAGS},         {"moment_state", v1::MOMENT_STATE},
     {"slices", v1::SLICES},       {"cumulative", v1::CUMULATIVE},
-    {"direct_indirect", v1::DIRECT_INDIRECT},
+    {"direct_indirect", v1::DIRECT_INDIRECT}, {"moment_depth", v1::MOMENT_DEPTH},
 };
 
 constexpr int kMaxBins = 1024;
@@ -108,8 +108,12 @@ absl::Status Prefixed(absl::string_view prefix, const absl::Status& status) {
 // Writes one group of images of the same product; appends the files to summary->files.
 class ProductWriter {
  public:
-  ProductWriter(fs::path dir, const std::vector<v1::Product>& requested, ClientSummary* summary)
-      : dir_(std::move(dir)), requested_(requested), summary_(summary) {}
+  ProductWriter(fs::path dir, const std::vector<v1::Product>& requested, ClientSummary* summary,
+                std::optional<double> virtual_plane_m = std::nullopt)
+      : dir_(std::move(dir)),
+        requested_(requested),
+        summary_(summary),
+        virtual_plane_m_(virtual_plane_m) {}
 
   absl::Status Write(v1::Product product, const std::vector<const DecodedImage*>& images) {
     const DecodedImage& first = *images.front();
@@ -130,6 +134,8 @@ class ProductWriter {
         return Series("slices", images, &summary_->slice_scale);
       case v1::CUMULATIVE:
         return Series("cumulative", images, &summary_->cumulative_scale);
+      case v1::MOMENT_DEPTH:
+        return MomentDepth(first);
       default:
         return Planes(ProductStem(product), images);
     }
@@ -174,6 +180,48 @@ class ProductWriter {
       return std::isfinite(value) ? static_cast<uint8_t>(std::clamp(value, 0.0f, 255.0f)) : 0;
     });
     return Done(name, WritePng8((dir_ / name).string(), image.geometry, bits));
+  }
+
+  // The decoded moments b1..b4 as float TIFFs, and the occlusion of the virtual plane.
+  absl::Status MomentDepth(const DecodedImage& image) {
+    if (!image.moment_depth) return absl::InternalError("moment_depth image without its map");
+    const MomentDepthMap& map = *image.moment_depth;
+    if (absl::Status status = MakeFolder("moment_depth"); !status.ok()) return status;
+    const int64_t pixels = map.geometry.pixel_count();
+    std::vector<float> plane(static_cast<size_t>(pixels));
+    for (int j = 1; j <= 4; ++j) {
+      for (int64_t p = 0; p < pixels; ++p) {
+        plane[p] = map.Texel(static_cast<int>(p % map.geometry.width),
+                             static_cast<int>(p / map.geometry.width))[j];
+      }
+      const std::string name = absl::StrCat("moment_depth/b", j, ".tiff");
+      if (absl::Status status =
+              Done(name, WriteTiffFloat((dir_ / name).string(), map.geometry, plane));
+          !status.ok()) {
+        return status;
+      }
+    }
+    const double plane_m = virtual_plane_m_.value_or(0.5 * (map.options.normalisation.near_m +
+                                                            map.options.normalisation.far_m));
+    std::vector<uint8_t> occlusion(static_cast<size_t>(pixels));
+    double sum = 0.0;
+    for (int64_t p = 0; p < pixels; ++p) {
+      const float fraction = map.Occlusion(static_cast<int>(p % map.geometry.width),
+                                           static_cast<int>(p / map.geometry.width), plane_m);
+      sum += fraction;
+      occlusion[p] = static_cast<uint8_t>(std::lround(255.0f * std::clamp(fraction, 0.0f, 1.0f)));
+    }
+    summary_->moment_depth = ClientSummary::MomentDepth{
+        .bits = map.options.format == MomentMapFormat::kOptimized64 ? 64 : 128,
+        .near_m = map.options.normalisation.near_m,
+        .far_m = map.options.normalisation.far_m,
+        .sigma_px = map.options.sigma_px,
+        .from_returns = image.moment_depth_from_returns,
+        .empty_pixels = map.empty_texels,
+        .virtual_plane_m = plane_m,
+        .occluded_share = sum / static_cast<double>(pixels)};
+    const std::string name = "moment_depth/occlusion_plane.png";
+    return Done(name, WritePng8((dir_ / name).string(), map.geometry, occlusion));
   }
 
   absl::Status MakeFolder(const std::string& folder) {
@@ -236,10 +284,12 @@ class ProductWriter {
   fs::path dir_;
   const std::vector<v1::Product>& requested_;
   ClientSummary* summary_;
+  std::optional<double> virtual_plane_m_;
 };
 
 absl::Status WriteProducts(const fs::path& dir, const std::vector<DecodedImage>& images,
-                           const std::vector<v1::Product>& requested, ClientSummary* summary) {
+                           const std::vector<v1::Product>& requested,
+                           std::optional<double> virtual_plane_m, ClientSummary* summary) {
   // Products in the order they arrived, each with its planes in order.
   std::vector<std::pair<v1::Product, std::vector<const DecodedImage*>>> groups;
   for (const DecodedImage& image : images) {
@@ -261,7 +311,7 @@ absl::Status WriteProducts(const fs::path& dir, const std::vector<DecodedImage>&
       }
     }
   }
-  ProductWriter writer(dir, requested, summary);
+  ProductWriter writer(dir, requested, summary, virtual_plane_m);
   for (const auto& [product, group] : groups) {
     if (absl::Status status = writer.Write(product, group); !status.ok()) return status;
   }
@@ -373,17 +423,30 @@ absl::StatusOr<std::vector<DecodedImage>> DecodeFrame(const v1::Frame& frame) {
     if (!values.ok()) return values.status();
     const ImageGeometry geometry{static_cast<int>(image.width()),
                                  static_cast<int>(image.height())};
-    if (static_cast<int64_t>(values->size()) != geometry.pixel_count()) {
+    const int channels = image.product() == v1::MOMENT_DEPTH ? 4 : 1;
+    if (static_cast<int64_t>(values->size()) != channels * geometry.pixel_count()) {
       return absl::DataLossError(absl::StrCat("image '", image.name(), "' of frame ",
                                               frame.sequence(), " decodes to ", values->size(),
                                               " values for ", image.width(), "x",
-                                              image.height(), " px"));
+                                              image.height(), " px of ", channels,
+                                              channels == 1 ? " value" : " values"));
+    }
+    std::optional<MomentDepthMap> moment_depth;
+    if (image.product() == v1::MOMENT_DEPTH) {
+      absl::StatusOr<MomentDepthMap> map = service::DecodeMomentDepth(image);
+      if (!map.ok()) {
+        return absl::DataLossError(
+            absl::StrCat("frame ", frame.sequence(), ": ", map.status().message()));
+      }
+      moment_depth = *std::move(map);
     }
     images.push_back({.name = image.name(),
                       .product = image.product(),
                       .geometry = geometry,
                       .time_of_flight_ns = image.time_of_flight_ns(),
-                      .values = *std::move(values)});
+                      .values = *std::move(values),
+                      .moment_depth = std::move(moment_depth),
+                      .moment_depth_from_returns = image.moment_depth().from_returns()});
   }
   return images;
 }
@@ -504,6 +567,29 @@ absl::Status ClientArgs::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("--connect-timeout = ", connect_timeout_s, ": expected > 0 seconds"));
   }
+  if (!(moment_near_m == 0.0 && moment_far_m == 0.0)) {
+    if (!std::isfinite(moment_near_m) || moment_near_m < 0.0) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--moment-near = ", moment_near_m, ": expected a finite depth >= 0 m"));
+    }
+    if (!std::isfinite(moment_far_m) || !(moment_far_m > moment_near_m)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--moment-far = ", moment_far_m, ": expected a depth above --moment-near = ",
+                       moment_near_m, " m (or both 0 for the daemon's default)"));
+    }
+  }
+  if (moment_sigma_px && (!std::isfinite(*moment_sigma_px) || *moment_sigma_px < 0.0)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--moment-sigma = ", *moment_sigma_px, ": expected >= 0 px (0 = no filter)"));
+  }
+  if (moment_bits != 64 && moment_bits != 128) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--moment-bits = ", moment_bits, ": expected 64 or 128"));
+  }
+  if (virtual_plane_m && (!std::isfinite(*virtual_plane_m) || !(*virtual_plane_m > 0.0))) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--virtual-plane = ", *virtual_plane_m, ": expected a depth > 0 m"));
+  }
   return absl::OkStatus();
 }
 
@@ -566,6 +652,14 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   request.set_encoding(*EncodingFromName(args.encoding));
   request.set_compression(args.zstd ? v1::ZSTD : v1::COMPRESSION_NONE);
   request.mutable_slices()->set_bins(static_cast<uint32_t>(args.bins));
+  if (Contains(products, v1::MOMENT_DEPTH)) {
+    v1::MomentDepthRequest* moments = request.mutable_moment_depth();
+    moments->set_near_m(args.moment_near_m);
+    moments->set_far_m(args.moment_far_m);
+    if (args.moment_sigma_px) moments->set_sigma_px(*args.moment_sigma_px);
+    moments->set_bits(static_cast<uint32_t>(args.moment_bits));
+    moments->set_from_returns(args.moment_from_returns);
+  }
 
   const int64_t target =
       args.frames > 0 ? args.frames : std::numeric_limits<int64_t>::max();  // else --seconds
@@ -646,7 +740,8 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
     summary.stream_error = std::string(stream_error.message());
   }
 
-  absl::Status written = WriteProducts(dir, last_images, products, &summary);
+  absl::Status written =
+      WriteProducts(dir, last_images, products, args.virtual_plane_m, &summary);
   ProductWriter json_writer(dir, products, &summary);
   if (written.ok()) {
     summary.files.push_back("summary.json");
@@ -709,6 +804,16 @@ std::string ClientSummaryJson(const ClientSummary& summary) {
                   ",\n");
   absl::StrAppend(&json, "  \"colour_scale_percentile\": ", JsonNumber(kColourScalePercentile),
                   ",\n");
+  if (summary.moment_depth) {
+    const ClientSummary::MomentDepth& m = *summary.moment_depth;
+    absl::StrAppend(&json, "  \"moment_depth\": {\"bits\": ", m.bits,
+                    ", \"near_m\": ", JsonNumber(m.near_m), ", \"far_m\": ", JsonNumber(m.far_m),
+                    ", \"sigma_px\": ", JsonNumber(m.sigma_px),
+                    ", \"from_returns\": ", m.from_returns ? "true" : "false",
+                    ", \"empty_pixels\": ", m.empty_pixels,
+                    ", \"virtual_plane_m\": ", JsonNumber(m.virtual_plane_m),
+                    ", \"occluded_share\": ", JsonNumber(m.occluded_share), "},\n");
+  }
   absl::StrAppend(&json, "  \"files\": ", JsonStrings(summary.files), ",\n");
   absl::StrAppend(&json, "  \"interrupted\": ", summary.interrupted ? "true" : "false", ",\n");
   absl::StrAppend(&json, "  \"stream_error\": ",
@@ -731,6 +836,15 @@ std::string FormatClientSummary(const ClientSummary& summary) {
   absl::StrAppendFormat(&text, "\nlatency: p50 %.1f ms, p90 %.1f ms, p99 %.1f ms, max %.1f ms",
                         summary.latency.p50_ms, summary.latency.p90_ms, summary.latency.p99_ms,
                         summary.latency.max_ms);
+  if (summary.moment_depth) {
+    const ClientSummary::MomentDepth& m = *summary.moment_depth;
+    absl::StrAppendFormat(&text,
+                          "\nmoment depth map: %d bits, %.3g..%.3g m, sigma %.3g px%s; a virtual "
+                          "plane at %.3g m is %.1f%% hidden by the scene",
+                          m.bits, m.near_m, m.far_m, m.sigma_px,
+                          m.from_returns ? ", from Pisarenko returns" : "", m.virtual_plane_m,
+                          100.0 * m.occluded_share);
+  }
   absl::StrAppendFormat(&text, "\nwrote %d files to %s", summary.files.size(),
                         summary.output_dir);
   return text;

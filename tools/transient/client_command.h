@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <thread>
@@ -18,6 +19,7 @@
 #include "absl/time/time.h"
 #include "tools/transient/capture_commands.h"
 #include "transient/reconstruct/image.h"
+#include "transient/reconstruct/moment_depth_map.h"
 #include "transient/v1/transient.grpc.pb.h"
 #include "transient/v1/transient.pb.h"
 
@@ -35,7 +37,7 @@ struct ClientRoi {
 [[nodiscard]] absl::StatusOr<ClientRoi> ParseRoi(const std::string& text);
 
 // The product names of --products, in the order of the wire enum: range, depth, amplitude, c0,
-// flags, moment_state, slices, cumulative, direct_indirect.
+// flags, moment_state, slices, cumulative, direct_indirect, moment_depth.
 const std::vector<std::string>& ClientProductNames();
 
 // `transient client [--connect ADDR] --products range,slices --frames N --out DIR`.
@@ -52,9 +54,20 @@ struct ClientArgs {
   double max_rate_hz = 0.0;          // at most this many frames a second; 0 = every frame
   double connect_timeout_s = 5.0;    // how long to wait for the daemon, > 0
 
+  // moment_depth (MOMENT_DEPTH): the map asked for (v1::MomentDepthRequest), and the depth of
+  // a virtual plane, facing the camera, whose occlusion by the real scene the client computes
+  // from the map, as a renderer would (MomentDepthMap::Occlusion).
+  double moment_near_m = 0.0;  // near = far = 0: the daemon's default [0, unambiguous range]
+  double moment_far_m = 0.0;
+  std::optional<double> moment_sigma_px = std::nullopt;  // unset: the daemon's default, 1 px
+  int moment_bits = 64;                                  // 64 or 128
+  bool moment_from_returns = false;
+  std::optional<double> virtual_plane_m = std::nullopt;  // default: middle of near..far
+
   // Exactly one of frames > 0 and seconds > 0; known, non-empty products; the encoding fits
-  // them; bins 1..1024; a non-negative finite rate; an output directory. The message names the
-  // option, the value and the rule.
+  // them; bins 1..1024; a non-negative finite rate; an output directory; moment options: near
+  // >= 0 and far > near (or both 0), sigma finite >= 0, bits 64 or 128, a finite virtual plane
+  // > 0 m. The message names the option, the value and the rule.
   absl::Status Validate() const;
 };
 
@@ -86,6 +99,17 @@ struct ClientSummary {
   std::vector<double> slice_time_of_flight_ns = {};  // of the last frame's slices
   float slice_scale = 0.0f;       // colour scale of the slice images (value at full colour)
   float cumulative_scale = 0.0f;  // of the cumulative images
+  // MOMENT_DEPTH of the last frame: the map's parameters as the daemon sent them, and the
+  // virtual plane's occlusion computed from it.
+  struct MomentDepth {
+    int bits = 0;
+    double near_m = 0.0, far_m = 0.0, sigma_px = 0.0;
+    bool from_returns = false;
+    int64_t empty_pixels = 0;
+    double virtual_plane_m = 0.0;
+    double occluded_share = 0.0;  // mean occlusion fraction of the plane over the image
+  };
+  std::optional<MomentDepth> moment_depth = std::nullopt;
   std::vector<std::string> files = {};  // written, relative to output_dir, summary.json last
   std::string output_dir = {};
   bool interrupted = false;
@@ -105,6 +129,9 @@ struct ClientSummary {
 //   slices/slice_000.png ...                    SLICES, colour-mapped (inferno), one scale for all
 //   cumulative/slice_000.png ...                CUMULATIVE, likewise
 //   moment_state/, direct_indirect/ (float TIFF per plane, or <product>.tiff for one plane)
+//   moment_depth/b1.tiff .. b4.tiff             MOMENT_DEPTH: the decoded moments (b_0 = 1)
+//   moment_depth/occlusion_plane.png            MOMENT_DEPTH: 8-bit, 255 = the virtual plane
+//                                                 at virtual_plane_m is hidden by the scene
 //   summary.json                                always, even after an error
 // The colour scale of a series is the 99.5th percentile of its finite values (1 when none is
 // positive), so that the series reads as a video of the light sweeping through the scene.
@@ -146,11 +173,14 @@ struct DecodedImage {
   v1::Product product = v1::PRODUCT_UNSPECIFIED;
   ImageGeometry geometry;
   double time_of_flight_ns = 0.0;
-  std::vector<float> values;
+  std::vector<float> values;  // one per pixel; MOMENT_DEPTH: four per pixel, interleaved
+  std::optional<MomentDepthMap> moment_depth = std::nullopt;  // MOMENT_DEPTH only
+  bool moment_depth_from_returns = false;
 };
 
-// Every image of `frame` decoded (service::DecodeImage). DataLoss naming the image and the
-// frame when one is empty, larger than kMaxImageSide, or does not decode to width x height.
+// Every image of `frame` decoded (service::DecodeImage, and service::DecodeMomentDepth for
+// MOMENT_DEPTH). DataLoss naming the image and the frame when one is empty, larger than
+// kMaxImageSide, or does not decode to width x height pixels.
 [[nodiscard]] absl::StatusOr<std::vector<DecodedImage>> DecodeFrame(const v1::Frame& frame);
 
 // Cancels a stream from a second thread when *cancel turns true or `deadline` passes: a

@@ -11,6 +11,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "transient/reconstruct/image.h"
+#include "transient/reconstruct/moment_depth_map.h"
 #include "transient/v1/transient.pb.h"
 
 namespace transient::service {
@@ -52,9 +53,26 @@ absl::Status EncodeBytePlane(std::span<const uint8_t> plane, ImageGeometry senso
                              const PixelRect& rect, v1::Compression compression, v1::Image* out);
 
 // Client side: the image's values as floats in the product's SI unit (16UC1 millimetres become
-// metres, 0 becomes NaN; 8UC1 bytes become 0..255). DataLoss naming the image when the data
-// does not fit width, height, step and encoding, when zstd fails, or for an unknown encoding.
+// metres, 0 becomes NaN; 8UC1 bytes become 0..255), ImageChannels(image) values per pixel,
+// interleaved (16UC4 gives the four codes 0..65535 of each pixel, 32FC4 its four floats).
+// DataLoss naming the image when the data does not fit width, height, step and encoding, when
+// zstd fails, or for an unknown encoding.
 absl::StatusOr<std::vector<float>> DecodeImage(const v1::Image& image);
+// Values per pixel of the image's encoding: 1, or 4 for 16UC4 and 32FC4; 0 when unknown.
+int ImageChannels(const v1::Image& image);
+
+// MOMENT_DEPTH: `map` (whole sensor) cropped to `rect` as 16UC4 (kOptimized64) or 32FC4
+// (kFloat128), four values per pixel interleaved, and Image.moment_depth filled in (range,
+// sigma, bits, bias, counters). The caller sets name, product and unit.
+absl::Status EncodeMomentDepth(const MomentDepthMap& map, bool from_returns,
+                               const PixelRect& rect, v1::Compression compression,
+                               v1::Image* out);
+
+// Client side: the moment depth map of a MOMENT_DEPTH image (its geometry is the image's, the
+// stream's region of interest), ready for MomentDepthMap::Occlusion. DataLoss naming the image
+// when moment_depth info is missing, bits and encoding disagree, the range is invalid, a
+// 128-bit moment is not finite, or the data does not decode (DecodeImage).
+absl::StatusOr<MomentDepthMap> DecodeMomentDepth(const v1::Image& image);
 
 // IEEE 754 binary16 conversions, round to nearest even; NaN and infinities are kept.
 uint16_t FloatToHalf(float value);

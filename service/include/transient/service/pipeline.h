@@ -83,6 +83,7 @@ struct PublishedFrame {
 struct ProductRequest {
   ProductSet products;
   std::vector<double> slice_phases;  // radians, for SLICES and CUMULATIVE
+  MomentDepthSpec moment_depth;      // for MOMENT_DEPTH
 };
 
 class Subscription {

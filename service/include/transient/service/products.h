@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "transient/drivers/capture_source.h"
+#include "transient/reconstruct/moment_depth_map.h"
 #include "transient/reconstruct/reconstructor.h"
 #include "transient/v1/transient.pb.h"
 
@@ -43,6 +44,34 @@ struct SliceImages {
   std::vector<float> cumulative;  // [slices, pixels] (thesis eq. 8.9); empty unless asked
 };
 
+// A MOMENT_DEPTH request resolved against the sensor (v1::MomentDepthRequest): equal specs of
+// several subscribers share one map per frame.
+struct MomentDepthSpec {
+  double near_m = 0.0;
+  double far_m = 1.0;
+  double sigma_px = 1.0;  // 0 = no filter
+  MomentMapFormat format = MomentMapFormat::kOptimized64;
+  bool from_returns = false;  // Pisarenko returns instead of the single depth
+
+  MomentDepthMapOptions MapOptions() const {
+    return {.normalisation = {.near_m = near_m, .far_m = far_m},
+            .sigma_px = sigma_px,
+            .format = format};
+  }
+  friend auto operator<=>(const MomentDepthSpec&, const MomentDepthSpec&) = default;
+};
+
+// At most this many distinct MOMENT_DEPTH specs are computed per frame for all streams.
+inline constexpr int kMaxMomentDepthSpecs = 8;
+
+// Resolves a request: near = far = 0 means [0, unambiguous_range_m]; sigma unset means 1 px;
+// bits 0 means 64. InvalidArgument naming the field for a non-finite or negative near, far not
+// above near, a negative or non-finite sigma, a filter wider than the sensor, or bits other
+// than 0, 64 and 128.
+absl::StatusOr<MomentDepthSpec> ResolveMomentDepthSpec(const v1::MomentDepthRequest& request,
+                                                       ImageGeometry sensor,
+                                                       double unambiguous_range_m);
+
 struct ProductOptions {
   double base_frequency_hz = 23e6;
   RangeMethod range_method = RangeMethod::kMese;
@@ -60,6 +89,7 @@ struct FrameProducts {
   std::vector<uint8_t> flags;                       // PixelFlag bits, incl. kFlagNoReturn
   std::vector<float> range_m, depth_m, amplitude, c0, direct, indirect;
   std::map<std::vector<double>, SliceImages> slices;  // keyed by their phases, radians
+  std::map<MomentDepthSpec, std::shared_ptr<const MomentDepthMap>> moment_depth;
 };
 
 // What to compute: products, and per phase list of SLICES/CUMULATIVE requests which of the two.
@@ -70,11 +100,15 @@ struct SliceNeed {
 struct ProductNeeds {
   ProductSet products;
   std::map<std::vector<double>, SliceNeed> slice_phases;
+  std::vector<MomentDepthSpec> moment_depth;  // distinct specs, for MOMENT_DEPTH
 };
 
 // Computes the needed planes from the solved state (with the kernels of reconstructor.h).
 // `camera` gives the intrinsics for DEPTH (Z = range / |(x - cx)/fx, (y - cy)/fy, 1|; the lens
-// distortion is not removed).
+// distortion is not removed). MOMENT_DEPTH maps are built from DEPTH, or from the Pisarenko
+// returns converted to depth the same way; a spec whose map cannot be built (which Resolve
+// rules out) is left out of the frame, so that its subscribers get no frame rather than a wrong
+// one.
 std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const SolvedImage> solved,
                                                      const CameraInfo& camera,
                                                      const ProductOptions& options,
