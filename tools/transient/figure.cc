@@ -46,6 +46,17 @@ int MaxWidth(const std::vector<std::string>& texts) {
   return width;
 }
 
+// A title line that never widens the figure (a video's frames must keep one size): a long one
+// is drawn smaller, centred on `centre_x` or, when it does not fit there, on the canvas.
+void DrawHeading(cv::Mat& canvas, const std::string& text, double scale, int centre_x,
+                 int baseline_y) {
+  while (scale > 0.3 && TextWidth(text, scale) > canvas.cols - 2 * kGap) scale *= 0.95;
+  const int width = TextWidth(text, scale);
+  centre_x = std::clamp(centre_x, kGap + width / 2,
+                        std::max(kGap + width / 2, canvas.cols - kGap - width / 2));
+  DrawText(canvas, text, cv::Point(centre_x, baseline_y), 0.5, scale);
+}
+
 }  // namespace
 
 Rgb8 ColourScale::Colour(float value) const {
@@ -138,7 +149,8 @@ cv::Rect DataArea(const ImageFigure& figure) {
   const int text_height = TextHeight(kFontScale);
   const int left =
       kOuterMargin + text_height + kGap + MaxWidth(TickLabels(y_ticks)) + kGap + kTickLength;
-  const int top = kOuterMargin + TextHeight(kTitleScale) + 2 * kGap;
+  int top = kOuterMargin + TextHeight(kTitleScale) + 2 * kGap;
+  if (!figure.subtitle.empty()) top += TextHeight(kFontScale) + kGap;
   return cv::Rect(left, top, image_width, image_height);
 }
 
@@ -193,18 +205,12 @@ cv::Mat RenderImageFigure(const ImageFigure& figure) {
   zoomed.copyTo(canvas(cv::Rect(left, top, image_width, image_height)));
   cv::rectangle(canvas, cv::Rect(left - 1, top - 1, image_width + 2, image_height + 2), kBlack);
 
-  // The title never widens the figure (a video's frames must keep one size): a long one is
-  // drawn smaller, centred on the figure when it does not fit over the image.
-  double title_scale = kTitleScale;
-  while (title_scale > 0.3 && TextWidth(figure.title, title_scale) > canvas_width - 2 * kGap) {
-    title_scale *= 0.95;
+  DrawHeading(canvas, figure.title, kTitleScale, left + image_width / 2,
+              kOuterMargin + TextHeight(kTitleScale));
+  if (!figure.subtitle.empty()) {
+    DrawHeading(canvas, figure.subtitle, kFontScale, left + image_width / 2,
+                kOuterMargin + TextHeight(kTitleScale) + kGap + TextHeight(kFontScale));
   }
-  const int title_width = TextWidth(figure.title, title_scale);
-  int title_centre = left + image_width / 2;
-  title_centre = std::clamp(title_centre, kGap + title_width / 2,
-                            std::max(kGap + title_width / 2, canvas_width - kGap - title_width / 2));
-  DrawText(canvas, figure.title,
-           cv::Point(title_centre, kOuterMargin + TextHeight(kTitleScale)), 0.5, title_scale);
   for (size_t i = 0; i < x_ticks.size(); ++i) {
     const int x = static_cast<int>(std::lround(Position(figure.x, x_ticks[i], left, image_width)));
     const int y = top + image_height;
@@ -252,6 +258,38 @@ cv::Mat RenderImageFigure(const ImageFigure& figure) {
                   cv::FILLED);
     cv::rectangle(canvas, cv::Rect(x, y, kSwatch, kSwatch), kBlack);
     DrawText(canvas, figure.legend[i].text, cv::Point(x + kSwatch + kGap, y + kSwatch - 2));
+  }
+  return canvas;
+}
+
+cv::Mat RenderGrid(const std::vector<cv::Mat>& panels, int columns, const std::string& title,
+                   const std::string& subtitle) {
+  assert(!panels.empty() && columns >= 1);
+  int cell_width = 0, cell_height = 0;
+  for (const cv::Mat& panel : panels) {
+    assert(panel.type() == CV_8UC3);
+    cell_width = std::max(cell_width, panel.cols);
+    cell_height = std::max(cell_height, panel.rows);
+  }
+  columns = std::min<int>(columns, static_cast<int>(panels.size()));
+  const int rows = (static_cast<int>(panels.size()) + columns - 1) / columns;
+  int top = kOuterMargin + TextHeight(kTitleScale) + kGap;
+  if (!subtitle.empty()) top += TextHeight(kFontScale) + kGap;
+  int width = columns * cell_width, height = top + rows * cell_height;
+  width += width % 2;
+  height += height % 2;
+  cv::Mat canvas(height, width, CV_8UC3, kWhite);
+  DrawHeading(canvas, title, kTitleScale, width / 2, kOuterMargin + TextHeight(kTitleScale));
+  if (!subtitle.empty()) {
+    DrawHeading(canvas, subtitle, kFontScale, width / 2,
+                kOuterMargin + TextHeight(kTitleScale) + kGap + TextHeight(kFontScale));
+  }
+  for (size_t i = 0; i < panels.size(); ++i) {
+    const int column = static_cast<int>(i) % columns, row = static_cast<int>(i) / columns;
+    const cv::Mat& panel = panels[i];
+    const int x = column * cell_width + (cell_width - panel.cols) / 2;
+    const int y = top + row * cell_height + (cell_height - panel.rows) / 2;
+    panel.copyTo(canvas(cv::Rect(x, y, panel.cols, panel.rows)));
   }
   return canvas;
 }

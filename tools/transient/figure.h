@@ -57,6 +57,8 @@ struct ImageFigure {
   // the smallest integer that makes the image at least kTargetImageSize wide or high.
   int zoom_x = 0;
   int zoom_y = 0;
+  // A second, smaller line under the title (what the picture shows in detail); empty: none.
+  std::string subtitle = {};
 };
 
 inline constexpr int kTargetImageSize = 480;
@@ -66,6 +68,12 @@ cv::Mat RenderImageFigure(const ImageFigure& figure);
 // Where RenderImageFigure draws the data image: data pixel (x, y) covers the screen pixels
 // from (area.x + x * zoom_x, area.y + y * zoom_y) on, zoom = area size / geometry.
 cv::Rect DataArea(const ImageFigure& figure);
+
+// Rendered figures (e.g. RenderImageFigure's) side by side, `columns` per row, each in a cell of
+// the largest panel's size (smaller panels centred), under a title and an optional subtitle.
+// White background, even width and height, deterministic.
+cv::Mat RenderGrid(const std::vector<cv::Mat>& panels, int columns, const std::string& title,
+                   const std::string& subtitle = "");
 
 // Writes an 8-bit RGB figure as PNG (WritePngRgb8: a failed write leaves no file).
 absl::Status WriteFigurePng(const std::string& path, const cv::Mat& rgb);

@@ -368,6 +368,10 @@ struct ClientCommandLine {
   std::string roi;
   CLI::Option* frames_option = nullptr;
   CLI::Option* seconds_option = nullptr;
+  double moment_sigma_px = 1.0;
+  double virtual_plane_m = 0.0;
+  CLI::Option* moment_sigma_option = nullptr;
+  CLI::Option* virtual_plane_option = nullptr;
 };
 
 CLI::App* AddClientCommand(CLI::App& app, ClientCommandLine& line) {
@@ -386,9 +390,12 @@ CLI::App* AddClientCommand(CLI::App& app, ClientCommandLine& line) {
       "                     cumulative per time of flight, one colour scale per series (the\n"
       "                     99.5th percentile of its finite values), NaN grey\n"
       "  moment_state/, direct_indirect/: one float TIFF per plane\n"
+      "  moment_depth/b1.tiff..b4.tiff: the moment depth map's moments of normalised depth\n"
+      "  moment_depth/occlusion_plane.png: 8-bit occlusion of a virtual plane at --virtual-plane\n"
+      "                     metres computed from the map (255 = hidden by the real scene)\n"
       "  summary.json       address, source, camera size, frames, seconds, rate_hz, latency_ms\n"
       "                     {p50, p90, p99, max} (daemon latency + network), frames_missed, state\n"
-      "                     changes, slice_time_of_flight_ns, colour scales, files\n"
+      "                     changes, slice_time_of_flight_ns, colour scales, moment_depth, files\n"
       "Exit codes: 0 done, 1 daemon unreachable or failed, 2 bad options, 130 interrupted (what\n"
       "arrived is written first).");
   transient::tools::ClientArgs& args = line.args;
@@ -397,7 +404,7 @@ CLI::App* AddClientCommand(CLI::App& app, ClientCommandLine& line) {
   command
       ->add_option("--products", line.products,
                    "comma-separated: range, depth, amplitude, c0, flags, moment_state, slices, "
-                   "cumulative, direct_indirect")
+                   "cumulative, direct_indirect, moment_depth")
       ->capture_default_str();
   line.frames_option =
       command->add_option("--frames", args.frames, "frames with images to receive")
@@ -426,6 +433,21 @@ CLI::App* AddClientCommand(CLI::App& app, ClientCommandLine& line) {
       ->add_option("--connect-timeout", args.connect_timeout_s,
                    "seconds to wait for the daemon to accept the connection")
       ->capture_default_str();
+  command->add_option("--moment-near", args.moment_near_m,
+                      "moment_depth: depth mapped to -1, metres (with --moment-far; both 0 = "
+                      "the daemon's default, 0 to the unambiguous range)");
+  command->add_option("--moment-far", args.moment_far_m, "moment_depth: depth mapped to +1, m");
+  line.moment_sigma_option = command->add_option(
+      "--moment-sigma", line.moment_sigma_px,
+      "moment_depth: Gaussian blur of the moment map in pixels, 0 = none (default 1)");
+  command->add_option("--moment-bits", args.moment_bits, "moment_depth: 64 or 128 bits per pixel")
+      ->capture_default_str();
+  command->add_flag("--moment-from-returns", args.moment_from_returns,
+                    "moment_depth: moments of each pixel's Pisarenko returns (mixed pixels)");
+  line.virtual_plane_option = command->add_option(
+      "--virtual-plane", line.virtual_plane_m,
+      "moment_depth: depth in metres of the virtual plane whose occlusion is computed "
+      "(default: the middle of the map's range)");
   return command;
 }
 
@@ -445,6 +467,8 @@ int RunClientCommand(ClientCommandLine& line) {
   }
   // --seconds alone replaces the default --frames.
   if (line.seconds_option->count() > 0 && line.frames_option->count() == 0) args.frames = 0;
+  if (line.moment_sigma_option->count() > 0) args.moment_sigma_px = line.moment_sigma_px;
+  if (line.virtual_plane_option->count() > 0) args.virtual_plane_m = line.virtual_plane_m;
   if (absl::Status status = args.Validate(); !status.ok()) {
     std::cerr << ErrorLine(status) << "\n";
     return kExitBadInput;
@@ -468,6 +492,10 @@ struct ViewCommandLine {
   double bounds_r = 0.5;
   bool no_bounds = false;
   bool no_colour = false;
+  double near_m = 0.0;
+  CLI::Option* near_option = nullptr;
+  double far_m = 0.0;
+  CLI::Option* far_option = nullptr;
 };
 
 CLI::App* AddViewCommand(CLI::App& app, ViewCommandLine& line) {
@@ -488,6 +516,16 @@ CLI::App* AddViewCommand(CLI::App& app, ViewCommandLine& line) {
       "  frame_NNN/points.ply               range * ray of every pixel with a range (metres,\n"
       "                                     x right, y down, z forward), coloured by c0\n"
       "  frame_NNN/pixel_xXXX_yYYY.png      density, bounds band, Pisarenko returns, cumulative\n"
+      "  frame_NNN/moment_depth/            --moment-depth (thesis ch. 4): for each --blur S,\n"
+      "    map_unfiltered.png, map_sigma_S.png  the 64-bit moment map as colour (eq. 4.4)\n"
+      "    plane_sigma_S.png, sphere_sigma_S.png  virtual objects occluded by the real scene\n"
+      "    shadow_sigma_S.png               light at the camera: the scene's shadow on a backdrop\n"
+      "    compare_sigma_S.png              hard test, VSM, Hamburger, Hausdorff 4MSM (S nearest 2)\n"
+      "  moment_plane.mp4                   --moment-video: hard test vs 4MSM, every frame\n"
+      "Moment defaults from the depth percentiles d_lo/d_hi/d_top (0.5/95/99.5th) of the frames\n"
+      "drawn, m = 0.1 d_hi: near = 0.85 d_lo, far = 1.15 d_top (rounded outward to 0.1 m);\n"
+      "plane from Z = d_hi - 2m (left) to d_hi + m (right); sphere of radius m at Z = d_hi + m/2\n"
+      "on the centre ray; backdrop from (d_lo + d_hi)/2 - m to d_hi + m. The summary prints them.\n"
       "Colour scales are fixed for the whole run: density, cumulative, c0 and direct/indirect\n"
       "from 0 to their 99.5th percentile over every frame drawn (density: all bins, or --scale),\n"
       "range from its 0.5th to its 99.5th percentile; grey = no value.\n"
@@ -548,6 +586,41 @@ CLI::App* AddViewCommand(CLI::App& app, ViewCommandLine& line) {
       ->add_option("--connect-timeout", args.connect_timeout_s,
                    "daemon input: seconds to wait for transientd to accept the connection")
       ->capture_default_str();
+
+  transient::tools::MomentPictureOptions& moment = args.moment;
+  CLI::Option_group* group = command->add_option_group(
+      "Moment depth",
+      "moment shadow mapping on the camera's depth (thesis ch. 4): virtual objects and a "
+      "virtual backdrop tested against filtered 64-bit moment maps; needs --camera");
+  group->add_flag("--moment-depth", moment.enabled,
+                  "draw frame_NNN/moment_depth/ (range -> depth with the --camera intrinsics)");
+  line.near_option = group->add_option(
+      "--near", line.near_m, "depth mapped to -1, m (default: 0.85 x 0.5th depth percentile)");
+  line.far_option = group->add_option(
+      "--far", line.far_m, "depth mapped to +1, m (default: 1.15 x 99.5th depth percentile)");
+  group
+      ->add_option("--blur", moment.blur_px,
+                   "Gaussian sigmas of the moment map, px (comma-separated; one set of pictures "
+                   "each)")
+      ->delimiter(',')
+      ->capture_default_str();
+  group->add_option("--upscale", moment.upscale, "output pixels per camera pixel (1..8)")
+      ->capture_default_str();
+  group
+      ->add_option("--plane-depth", moment.plane_depth_m,
+                   "LEFT,RIGHT: depth Z of the virtual plane's left and right edges, m")
+      ->delimiter(',');
+  group
+      ->add_option("--sphere", moment.sphere_m,
+                   "Z,R[,X,Y]: depth of the virtual sphere's centre and radius, m; X,Y: the pixel "
+                   "its centre is seen at (default: the image centre)")
+      ->delimiter(',');
+  group
+      ->add_option("--backdrop-depth", moment.backdrop_depth_m,
+                   "LEFT,RIGHT: depth Z of the shadow backdrop's edges, m")
+      ->delimiter(',');
+  group->add_flag("--moment-video", moment.video,
+                  "moment_plane.mp4: the plane, hard test vs Hamburger 4MSM, every frame");
   return command;
 }
 
@@ -570,6 +643,8 @@ int RunViewCommand(ViewCommandLine& line) {
   args.ply_format = *ply;
   args.ply_colour = !line.no_colour;
   if (line.scale_option->count() > 0) args.density_scale = line.scale;
+  if (line.near_option->count() > 0) args.moment.near_m = line.near_m;
+  if (line.far_option->count() > 0) args.moment.far_m = line.far_m;
   args.bounds_r = line.no_bounds ? std::nullopt : std::optional<double>(line.bounds_r);
   if (line.frames_option->count() > 0 && transient::tools::IsDaemonInput(args.input_path)) {
     if (!absl::SimpleAtoi(line.frames, &args.daemon_frames)) {

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <system_error>
@@ -88,6 +89,7 @@ absl::Status InFile(const std::string& file, const absl::Status& status) {
 // What a run draws, resolved against the input.
 struct Plan {
   bool slices = false, cumulative = false, video = false, images = false, point_cloud = false;
+  bool moment_depth = false;     // frame_NNN/moment_depth/ (moment_pictures.h)
   bool direct_indirect = false;  // part of images when the input has Pisarenko products
   bool pisarenko_range = false;  // likewise; a daemon sends direct/indirect without it
   std::vector<int> streak_rows;
@@ -106,7 +108,7 @@ DaemonSourceOptions DaemonOptionsOf(const ViewArgs& args) {
 
 bool NothingChosen(const ViewArgs& args) {
   return !args.slices && !args.cumulative && !args.video && !args.images && !args.point_cloud &&
-         args.streak_rows.empty() && args.pixels.empty();
+         args.streak_rows.empty() && args.pixels.empty() && !args.moment.enabled;
 }
 
 // The bin whose phase is nearest (on the circle) to the time of flight tau.
@@ -226,6 +228,22 @@ absl::StatusOr<Plan> MakePlan(const ViewArgs& args, const TransientFrameSource& 
         "--point-cloud needs the camera's intrinsics: give --camera CAPTURE.h5 (a capture file "
         "of the camera that took ", name, ")"));
   }
+  plan.moment_depth = args.moment.enabled;
+  if (plan.moment_depth) {
+    if (!plan.intrinsics.has_value()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--moment-depth needs the camera's intrinsics to turn range into depth: give --camera "
+          "CAPTURE.h5 (a capture file of the camera that took ",
+          name, ")"));
+    }
+    if (absl::Status status = need(true, Product::kRange, "the moment pictures (--moment-depth)");
+        !status.ok()) {
+      return status;
+    }
+    if (absl::Status status = CheckMomentOptionsForImage(args.moment, geometry); !status.ok()) {
+      return status;
+    }
+  }
 
   ProductSet& wanted = plan.wanted;
   const auto want = [&](Product product) {
@@ -233,7 +251,7 @@ absl::StatusOr<Plan> MakePlan(const ViewArgs& args, const TransientFrameSource& 
   };
   if (plan.slices || plan.video || !plan.streak_rows.empty()) want(Product::kDensity);
   if (plan.cumulative) want(Product::kCumulative);
-  if (plan.images || plan.point_cloud || !plan.pixels.empty()) {
+  if (plan.images || plan.point_cloud || !plan.pixels.empty() || plan.moment_depth) {
     want(Product::kRange);
     want(Product::kZerothMoment);
     want(Product::kFlags);
@@ -255,25 +273,30 @@ absl::StatusOr<Plan> MakePlan(const ViewArgs& args, const TransientFrameSource& 
   return plan;
 }
 
-// One pass over the frames to fix every colour scale for the whole run.
+// One pass over the frames to fix every colour scale for the whole run, and the depth
+// percentiles of the moment pictures' defaults (`depth`, when the plan draws them).
 absl::StatusOr<ViewScales> ChooseScales(const ViewArgs& args, const TransientFrameSource& source,
-                                        const Plan& plan, const CommandHooks& hooks) {
+                                        const Plan& plan, const CommandHooks& hooks,
+                                        DepthPercentiles* depth) {
   // The per-pixel plot scales its own axes; the colour-mapped pictures share these.
   const bool density =
       (plan.slices || plan.video || !plan.streak_rows.empty()) && !args.density_scale.has_value();
   const bool cumulative = plan.cumulative;
-  const bool amplitude = plan.images || plan.point_cloud;
+  const bool amplitude = plan.images || plan.point_cloud || plan.moment_depth;
   const bool range = plan.images;
+  const bool optical_depth = plan.moment_depth;
   const bool direct_indirect = plan.direct_indirect;
   ViewScales scales;
   if (args.density_scale.has_value()) scales.density = *args.density_scale;
-  if (!density && !cumulative && !amplitude && !range && !direct_indirect) return scales;
+  if (!density && !cumulative && !amplitude && !range && !direct_indirect && !optical_depth) {
+    return scales;
+  }
 
   ProductSet wanted;
   if (density) wanted.set(static_cast<int>(Product::kDensity));
   if (cumulative) wanted.set(static_cast<int>(Product::kCumulative));
   if (amplitude) wanted.set(static_cast<int>(Product::kZerothMoment));
-  if (range) wanted.set(static_cast<int>(Product::kRange));
+  if (range || optical_depth) wanted.set(static_cast<int>(Product::kRange));
   if (direct_indirect) {
     wanted.set(static_cast<int>(Product::kPisarenkoDirect));
     wanted.set(static_cast<int>(Product::kPisarenkoIndirect));
@@ -287,6 +310,7 @@ absl::StatusOr<ViewScales> ChooseScales(const ViewArgs& args, const TransientFra
   ScaleSampler density_samples(stride(bin_values)), cumulative_samples(stride(bin_values));
   ScaleSampler amplitude_samples(stride(plane_values)), range_samples(stride(plane_values));
   ScaleSampler direct_indirect_samples(stride(2 * plane_values));
+  ScaleSampler depth_samples(stride(plane_values));
   TransientFrame frame;
   for (int64_t k = 0; k < source.frames(); ++k) {
     if (hooks.cancel != nullptr && hooks.cancel->load()) {
@@ -297,6 +321,9 @@ absl::StatusOr<ViewScales> ChooseScales(const ViewArgs& args, const TransientFra
     if (cumulative) cumulative_samples.Add(frame.cumulative);
     if (amplitude) amplitude_samples.Add(frame.c0);
     if (range) range_samples.Add(frame.range_m);
+    if (optical_depth) {
+      depth_samples.Add(DepthFromRange(frame.geometry, frame.range_m, *plan.intrinsics));
+    }
     if (direct_indirect) {
       direct_indirect_samples.Add(frame.pisarenko_direct);
       direct_indirect_samples.Add(frame.pisarenko_indirect);
@@ -310,6 +337,13 @@ absl::StatusOr<ViewScales> ChooseScales(const ViewArgs& args, const TransientFra
   if (direct_indirect) {
     scales.direct_indirect =
         PositiveScale(direct_indirect_samples.Quantile(kScaleQuantile, 1.0));
+  }
+  if (optical_depth) {
+    // NaN when no pixel has a depth: ResolveMomentSetup then asks for every option.
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    depth->low_m = depth_samples.Quantile(0.005, nan);
+    depth->high_m = depth_samples.Quantile(0.95, nan);
+    depth->top_m = depth_samples.Quantile(0.995, nan);
   }
   if (range) {
     scales.range_min_m = range_samples.Quantile(1.0 - kScaleQuantile, 0.0);
@@ -368,10 +402,11 @@ std::string FrameDirectoryName(int64_t index) { return absl::StrFormat("frame_%0
 // Draws every picture of the plan, frame by frame.
 absl::Status DrawFrames(const ViewArgs& args, const TransientFrameSource& source,
                         const Plan& plan, const ViewScales& scales, int64_t index_offset,
-                        const CommandHooks& hooks, ViewSummary& summary) {
+                        const CommandHooks& hooks, MomentPictures* moment,
+                        ViewSummary& summary) {
   const std::filesystem::path out(args.output_dir);
   if (absl::Status status = MakeDirectory(out); !status.ok()) return status;
-  std::optional<Mp4Writer> video;
+  std::optional<Mp4Writer> video, moment_video;
   TransientFrame frame;
   const auto png = [&](const std::filesystem::path& path, const cv::Mat& figure) {
     ++summary.png_files;
@@ -471,11 +506,39 @@ absl::Status DrawFrames(const ViewArgs& args, const TransientFrameSource& source
         return status;
       }
     }
+    if (moment != nullptr) {
+      const std::vector<float> depth =
+          DepthFromRange(frame.geometry, frame.range_m, *plan.intrinsics);
+      const std::vector<float> no_c0(depth.size(), std::numeric_limits<float>::quiet_NaN());
+      if (absl::Status status = moment->SetFrame(frame.index, depth,
+                                                 frame.c0.empty() ? no_c0 : frame.c0,
+                                                 scales.amplitude);
+          !status.ok()) {
+        return status;
+      }
+      absl::StatusOr<int> written = moment->WriteFrame(dir / kMomentDirectory);
+      if (!written.ok()) return written.status();
+      summary.png_files += *written;
+      if (args.moment.video) {
+        const cv::Mat figure = moment->VideoFrameFigure();
+        if (!moment_video.has_value()) {
+          absl::StatusOr<Mp4Writer> writer =
+              Mp4Writer::Open((out / "moment_plane.mp4").string(), args.fps, figure.size());
+          if (!writer.ok()) return writer.status();
+          moment_video.emplace(*std::move(writer));
+        }
+        if (absl::Status status = moment_video->Write(figure); !status.ok()) return status;
+      }
+    }
     if (hooks.on_progress) hooks.on_progress(k + 1, source.frames());
   }
   if (video.has_value()) {
     summary.video_frames = video->frames();
     if (absl::Status status = video->Close(); !status.ok()) return status;
+  }
+  if (moment_video.has_value()) {
+    summary.moment_video_frames = moment_video->frames();
+    if (absl::Status status = moment_video->Close(); !status.ok()) return status;
   }
   return absl::OkStatus();
 }
@@ -497,14 +560,27 @@ absl::Status Draw(const ViewArgs& args, const TransientFrameSource& source,
     summary.notes.push_back("no MESE density in the input: no slices, video or streak images");
   }
 
-  absl::StatusOr<ViewScales> scales = ChooseScales(args, source, *plan, hooks);
+  DepthPercentiles depth;
+  absl::StatusOr<ViewScales> scales = ChooseScales(args, source, *plan, hooks, &depth);
   if (!scales.ok()) return scales.status();
+  // The moment pictures' range and placement are checked before anything is written.
+  std::optional<MomentPictures> moment;
+  if (plan->moment_depth) {
+    absl::StatusOr<MomentSetup> setup =
+        ResolveMomentSetup(args.moment, source.geometry(), *plan->intrinsics, depth);
+    if (!setup.ok()) return setup.status();
+    absl::StatusOr<MomentPictures> pictures = MomentPictures::Create(*setup);
+    if (!pictures.ok()) return pictures.status();
+    moment.emplace(*std::move(pictures));
+    summary.moment = *setup;
+  }
   summary.scales = *scales;
   summary.density_scale_given = args.density_scale.has_value();
   summary.density_drawn = plan->slices || plan->video || !plan->streak_rows.empty();
   summary.frames = source.frames();
   summary.geometry = source.geometry();
-  return DrawFrames(args, source, *plan, *scales, index_offset, hooks, summary);
+  return DrawFrames(args, source, *plan, *scales, index_offset, hooks,
+                    moment.has_value() ? &*moment : nullptr, summary);
 }
 
 // A daemon input: the frames are received first, then drawn like a file's.
@@ -700,7 +776,7 @@ absl::Status ViewArgs::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("--bounds-r = ", *bounds_r, ": expected 0 < R < 1"));
   }
-  return absl::OkStatus();
+  return moment.Validate();
 }
 
 std::string FormatViewSummary(const ViewSummary& summary) {
@@ -711,6 +787,10 @@ std::string FormatViewSummary(const ViewSummary& summary) {
   if (summary.video_frames > 0) {
     absl::StrAppendFormat(&text, ", light.mp4 with %d video frames", summary.video_frames);
   }
+  if (summary.moment_video_frames > 0) {
+    absl::StrAppendFormat(&text, ", moment_plane.mp4 with %d video frames",
+                          summary.moment_video_frames);
+  }
   absl::StrAppend(&text, " -> ", summary.output_dir);
   if (summary.density_drawn) {
     absl::StrAppendFormat(&text, "; density scale 0..%.4g %s (%s)", summary.scales.density,
@@ -718,6 +798,9 @@ std::string FormatViewSummary(const ViewSummary& summary) {
                           summary.density_scale_given ? "--scale" : "99.5th percentile");
   }
   absl::StrAppendFormat(&text, ", %.2f s", summary.seconds);
+  if (summary.moment.has_value()) {
+    absl::StrAppend(&text, "\n  ", FormatMomentSetup(*summary.moment));
+  }
   for (const std::string& note : summary.notes) absl::StrAppend(&text, "\n  note: ", note);
   return text;
 }

@@ -2,7 +2,7 @@
 // moment or capture file, reconstructed first into a temporary file, or frames received from a
 // running transientd, INPUT = daemon:ADDR): transient slices and their MP4 video, cumulative
 // frames, streak images, range, amplitude, flags, direct and indirect light, point clouds (PLY)
-// and per-pixel plots. The command runs in-process; main.cc only maps its arguments and its
+// and per-pixel plots; and the moment-depth pictures of thesis ch. 4 (moment_pictures.h). The command runs in-process; main.cc only maps its arguments and its
 // status to the command line.
 #pragma once
 
@@ -15,6 +15,7 @@
 #include "absl/status/statusor.h"
 #include "tools/transient/capture_commands.h"
 #include "tools/transient/frame_slice.h"
+#include "tools/transient/moment_pictures.h"
 #include "tools/transient/point_cloud.h"
 #include "tools/transient/view_pictures.h"
 
@@ -52,6 +53,10 @@ struct ViewArgs {
   bool point_cloud = false;               // frame_NNN/points.ply
   std::vector<int> streak_rows = {};      // frame_NNN/streak_yYYY.png
   std::vector<PixelPosition> pixels = {}; // frame_NNN/pixel_xXXX_yYYY.png
+  // frame_NNN/moment_depth/*.png (and moment_plane.mp4 with moment.video): moment depth maps and
+  // virtual objects tested against them. Needs the intrinsics (camera_path). Not part of
+  // "everything": drawn only when moment.enabled.
+  MomentPictureOptions moment = {};
 
   // Round-trip times of flight to draw slices, cumulative frames and video frames at, ns in
   // [0, 1/f); each is drawn at the nearest bin. Empty: every bin.
@@ -90,6 +95,8 @@ struct ViewSummary {
   int64_t png_files = 0;
   int64_t ply_files = 0;
   int64_t video_frames = 0;  // 0: no video
+  std::optional<MomentSetup> moment = std::nullopt;  // the moment pictures' range and placement
+  int64_t moment_video_frames = 0;                   // moment_plane.mp4; 0: none
   ViewScales scales = {};
   bool density_drawn = false;  // slices, video, streak images or pixel plots
   bool density_scale_given = false;
@@ -99,11 +106,13 @@ struct ViewSummary {
 
 // "drew 2 frames of 163x120 px (reconstruction rec.h5): 268 PNG, 2 PLY, light.mp4 with 128
 // video frames -> out/; density scale 0..0.41 sensor units/rad (99.5th percentile), 3.2 s"
-// followed by one line per note.
+// followed by the moment pictures' setup (FormatMomentSetup) and one line per note.
 std::string FormatViewSummary(const ViewSummary& summary);
 
 // Runs the command. Bad options, a bad input, a tau outside one period, a pixel or scanline
-// outside the image or a picture the input cannot give fail before anything is written
+// outside the image, a picture the input cannot give, or moment pictures without intrinsics, with
+// a blur wider than the image, an empty depth range or objects behind far fail before anything
+// is written
 // (InvalidArgument/NotFound/OutOfRange naming the file and the rule, exit code 2). A daemon
 // input is received first (DaemonFrameSource::Receive): an unreachable daemon is Unavailable
 // naming the address (exit code 1, as `transient client`), and nothing is written. Progress is
