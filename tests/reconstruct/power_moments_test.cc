@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/reconstruct/depth_mixture.h"
 #include "tests/tools/status_matchers.h"
 
 namespace transient {
@@ -22,30 +23,7 @@ using tools::testing::StatusIs;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// A depth distribution Σ w_l δ_{z_l} on [-1, 1] (weights sum to 1) and its exact fraction
-// strictly in front of a query.
-struct Mixture {
-  std::vector<double> z, w;
-
-  PowerMoments Moments() const {
-    PowerMoments b{};
-    for (size_t l = 0; l < z.size(); ++l) {
-      double power = 1.0;
-      for (int j = 0; j < kPowerMomentCount; ++j, power *= z[l]) b[j] += w[l] * power;
-    }
-    return b;
-  }
-  double FractionInFront(double z_f) const {
-    double f = 0.0;
-    for (size_t l = 0; l < z.size(); ++l) f += z[l] < z_f ? w[l] : 0.0;
-    return f;
-  }
-  double DistanceTo(double z_f) const {
-    double d = kInf;
-    for (const double zl : z) d = std::min(d, std::abs(zl - z_f));
-    return d;
-  }
-};
+using Mixture = testing::DepthMixture;  // tests/reconstruct/depth_mixture.h
 
 PowerMomentsF ToFloat(const PowerMoments& b) {
   PowerMomentsF f;
@@ -133,7 +111,7 @@ TEST(WeightedDepthMoments, ReproducesTheNormalisedMixture) {
   PowerMoments b;
   EXPECT_EQ(WeightedDepthMoments(depths, weights, n, &b), DepthSample::kValid);
   const Mixture expected{{-0.5, 0.0, 0.75}, {0.5, 0.25, 0.25}};
-  const PowerMoments want = expected.Moments();
+  const PowerMoments want = expected.Powers();
   for (int j = 0; j < kPowerMomentCount; ++j) EXPECT_NEAR(b[j], want[j], 1e-15) << j;
 }
 
@@ -185,7 +163,7 @@ TEST(Hamburger4, OneSurfaceOccludesBehindItAndNothingInFront) {
   constexpr double kMargin = 0.05;
   for (const double d : {-1.0, -0.6, 0.0, 0.3, 0.95, 1.0}) {
     const Mixture surface{{d}, {1.0}};
-    const PowerMoments b = surface.Moments();
+    const PowerMoments b = surface.Powers();
     for (const double offset : {kMargin, 0.2, 0.5}) {
       if (d + offset <= 1.0) {
         EXPECT_GE(Hamburger4OcclusionReference(b, d + offset, kFloatMomentBias),
@@ -229,7 +207,7 @@ TEST(Hamburger4, TwoSurfacesGiveTheExactFractionBetweenThem) {
     if (d2 - d1 < 3.0 * kMargin) continue;
     const double w = weight(rng);
     const Mixture two{{d1, d2}, {w, 1.0 - w}};
-    const PowerMoments b = two.Moments();
+    const PowerMoments b = two.Powers();
     const double z_f = std::uniform_real_distribution<double>(d1 + kMargin, d2 - kMargin)(rng);
     const double leak = TwoSurfaceLeak(d1, d2, z_f, kFloatMomentBias.alpha);
     const double reference = Hamburger4OcclusionReference(b, z_f, kFloatMomentBias);
@@ -246,15 +224,15 @@ TEST(Hamburger4, TwoDistantSurfacesLeakLittle) {
   // Surfaces at -0.5 and 0.5, queried midway: the leak bound above is 2.2e-4.
   const Mixture two{{-0.5, 0.5}, {0.3, 0.7}};
   EXPECT_LE(TwoSurfaceLeak(-0.5, 0.5, 0.0, kFloatMomentBias.alpha), 3e-4);
-  EXPECT_NEAR(OcclusionFraction(ToFloat(two.Moments()), 0.0f), 0.3, 3e-4 + kFloatSlack);
-  EXPECT_NEAR(Hamburger4OcclusionReference(two.Moments(), 0.0, kFloatMomentBias), 0.3, 3e-4);
+  EXPECT_NEAR(OcclusionFraction(ToFloat(two.Powers()), 0.0f), 0.3, 3e-4 + kFloatSlack);
+  EXPECT_NEAR(Hamburger4OcclusionReference(two.Powers(), 0.0, kFloatMomentBias), 0.3, 3e-4);
 }
 
 TEST(Hamburger4, ThreePointSolutionThroughTheQueryIsExact) {
   // Theorem 4.1: with z_f one of three surfaces, the other two are recovered and the bound is
   // the exact mass in front. Without bias (α = 0) in double precision.
   const Mixture three{{-0.7, 0.1, 0.6}, {0.2, 0.5, 0.3}};
-  const PowerMoments b = three.Moments();
+  const PowerMoments b = three.Powers();
   const MomentBias no_bias{0.0, 0.375};
   EXPECT_NEAR(Hamburger4OcclusionReference(b, 0.1, no_bias), 0.2, 1e-12);
   EXPECT_NEAR(Hamburger4OcclusionReference(b, 0.6, no_bias), 0.7, 1e-12);
@@ -276,7 +254,7 @@ TEST(PowerMomentBounds, NeverExceedTheTrueFractionByMoreThanTheBias) {
   const double alpha = kFloatMomentBias.alpha;
   for (int trial = 0; trial < 1000; ++trial) {
     const Mixture m = RandomMixture(trial, rng);
-    const PowerMoments b = m.Moments();
+    const PowerMoments b = m.Powers();
     const PowerMomentsF bf = ToFloat(b);
     for (int s = 0; s < 8; ++s) {
       // Half the queries anywhere, half right next to a surface (the steepest places).
@@ -301,7 +279,7 @@ TEST(PowerMomentBounds, MoreKnowledgeNeverLoosensTheBound) {
   std::mt19937_64 rng(43);
   for (int trial = 0; trial < 500; ++trial) {
     const Mixture m = RandomMixture(trial, rng);
-    const PowerMoments b = m.Moments();
+    const PowerMoments b = m.Powers();
     for (int s = 0; s < 6; ++s) {
       const double z_f = std::uniform_real_distribution<double>(-1.0, 1.0)(rng);
       const double vsm = VarianceOcclusionReference(b, z_f, kFloatMomentBias);
@@ -318,14 +296,14 @@ TEST(VarianceShadowMap, IsTheChebyshevBoundOfTheLitFraction) {
   // 1 - that is below the occluded fraction; unbiased, it is attained by a two-point mixture.
   const Mixture m{{-0.5, 0.5}, {0.5, 0.5}};  // μ = 0, σ² = 0.25
   const MomentBias no_bias{0.0, 0.375};
-  EXPECT_NEAR(VarianceOcclusionReference(m.Moments(), 0.5, no_bias), 0.25 / 0.5, 1e-15);
-  EXPECT_NEAR(VarianceOcclusion(ToFloat(m.Moments()), 0.5f, no_bias), 0.5, 1e-6);
-  EXPECT_EQ(VarianceOcclusionReference(m.Moments(), -0.1, no_bias), 0.0);  // z̄_f <= μ
+  EXPECT_NEAR(VarianceOcclusionReference(m.Powers(), 0.5, no_bias), 0.25 / 0.5, 1e-15);
+  EXPECT_NEAR(VarianceOcclusion(ToFloat(m.Powers()), 0.5f, no_bias), 0.5, 1e-6);
+  EXPECT_EQ(VarianceOcclusionReference(m.Powers(), -0.1, no_bias), 0.0);  // z̄_f <= μ
   std::mt19937_64 rng(44);
   for (int trial = 0; trial < 300; ++trial) {
     const Mixture r = RandomMixture(trial, rng);
     const double z_f = std::uniform_real_distribution<double>(-1.0, 1.0)(rng);
-    const double lit_upper = 1.0 - VarianceOcclusionReference(r.Moments(), z_f, no_bias);
+    const double lit_upper = 1.0 - VarianceOcclusionReference(r.Powers(), z_f, no_bias);
     EXPECT_GE(lit_upper, 1.0 - r.FractionInFront(z_f) - 1e-9);
   }
 }
@@ -334,7 +312,7 @@ TEST(VarianceShadowMap, IsTheChebyshevBoundOfTheLitFraction) {
 
 TEST(Hausdorff4, KnowsThatDepthLiesInTheRange) {
   const Mixture m{{-0.2, 0.4}, {0.6, 0.4}};
-  const PowerMoments b = m.Moments();
+  const PowerMoments b = m.Powers();
   EXPECT_EQ(Hausdorff4OcclusionReference(b, -1.0, kFloatMomentBias), 0.0);
   EXPECT_EQ(Hausdorff4OcclusionReference(b, 1.5, kFloatMomentBias), 1.0);
   EXPECT_EQ(Hausdorff4Occlusion(ToFloat(b), -3.0f, kFloatMomentBias), 0.0f);
@@ -345,7 +323,7 @@ TEST(Hausdorff4, FourPointBranchIsSharperNearTheEndOfTheRange) {
   // Three surfaces with one at the near end: Hamburger may place mass below -1, Hausdorff not.
   // Unbiased, with z_f just behind the middle surface, the four-point solution is exact.
   const Mixture m{{-1.0, 0.2, 1.0}, {0.3, 0.4, 0.3}};
-  const PowerMoments b = m.Moments();
+  const PowerMoments b = m.Powers();
   const MomentBias tiny{1e-9, 0.375};
   int sharper = 0;
   for (double z_f = -0.95; z_f < 0.95; z_f += 0.05) {
@@ -369,7 +347,7 @@ TEST(PowerMomentBounds, FloatPathStaysWithinTheBias) {
   std::mt19937_64 rng(45);
   for (int trial = 0; trial < 1000; ++trial) {
     const Mixture m = RandomMixture(trial, rng);
-    const PowerMoments b = m.Moments();
+    const PowerMoments b = m.Powers();
     const PowerMomentsF bf = ToFloat(b);
     for (int s = 0; s < 8; ++s) {
       const float z_f = static_cast<float>(std::uniform_real_distribution<double>(-1, 1)(rng));
@@ -393,7 +371,7 @@ TEST(PowerMomentBounds, NearSingularInputsStayFiniteAndInRange) {
       {{0.25}, {1.0}},          {{-1.0}, {1.0}},          {{1.0}, {1.0}},
       {{0.3, 0.300001}, {0.5, 0.5}}, {{-1.0, 1.0}, {0.5, 0.5}}, {{0.0, 1e-7}, {0.9, 0.1}}};
   for (const Mixture& m : cases) {
-    const PowerMomentsF bf = ToFloat(m.Moments());
+    const PowerMomentsF bf = ToFloat(m.Powers());
     for (float z_f = -1.2f; z_f <= 1.2f; z_f += 0.01f) {
       for (const MomentBias& bias : {kFloatMomentBias, kQuantized16MomentBias}) {
         for (const float g : {Hamburger4Occlusion(bf, z_f, bias),
@@ -428,22 +406,22 @@ TEST(OcclusionFraction, MissingOrCorruptMomentsOccludeNothing) {
 
 TEST(OcclusionFraction, NaNQueryOccludesNothingAndFarQueriesAreClamped) {
   const Mixture m{{0.0}, {1.0}};
-  const PowerMomentsF b = ToFloat(m.Moments());
+  const PowerMomentsF b = ToFloat(m.Powers());
   EXPECT_EQ(OcclusionFraction(b, std::numeric_limits<float>::quiet_NaN()), 0.0f);
   EXPECT_EQ(OcclusionFraction(b, -std::numeric_limits<float>::infinity()), 0.0f);
   const float behind = OcclusionFraction(b, std::numeric_limits<float>::infinity());
   EXPECT_EQ(behind, OcclusionFraction(b, static_cast<float>(kMaxQueryDepth)));
   EXPECT_GT(behind, 0.99f);
-  EXPECT_EQ(Hamburger4OcclusionReference(m.Moments(), kNaN, kFloatMomentBias), 0.0);
+  EXPECT_EQ(Hamburger4OcclusionReference(m.Powers(), kNaN, kFloatMomentBias), 0.0);
 }
 
 TEST(OcclusionFraction, FilteredCoverageIsDividedOut) {
   // A texel half covered by valid depth (b_0 = 0.5 after filtering) answers like full coverage.
   const Mixture m{{-0.3, 0.4}, {0.5, 0.5}};
-  PowerMoments half = m.Moments();
+  PowerMoments half = m.Powers();
   for (double& v : half) v *= 0.5;
   EXPECT_NEAR(OcclusionFraction(ToFloat(half), 0.0f),
-              OcclusionFraction(ToFloat(m.Moments()), 0.0f), 1e-6);
+              OcclusionFraction(ToFloat(m.Powers()), 0.0f), 1e-6);
   EXPECT_NEAR(OcclusionFraction(ToFloat(half), 0.0f), 0.5,
               TwoSurfaceLeak(-0.3, 0.4, 0.0, kFloatMomentBias.alpha) + kFloatSlack);
 }
@@ -466,7 +444,7 @@ TEST(OcclusionFractions, AgreeWithTheScalarFunctionIncludingNearSingularAndBound
   for (int trial = 0; trial < 600; ++trial) {
     // RandomMixture: 1..8 surfaces, clusters 1e-4 wide and range ends (near-singular Hankel).
     const Mixture m = RandomMixture(trial, rng);
-    PowerMoments b = m.Moments();
+    PowerMoments b = m.Powers();
     if (trial % 3 == 0) {  // a filtered texel: part of the footprint covered
       const double c = coverage(rng);
       for (double& v : b) v *= c;
@@ -512,7 +490,7 @@ TEST(OcclusionFractions, AgreeWithTheScalarFunctionIncludingNearSingularAndBound
 
 TEST(OcclusionFractions, DefaultBiasIsOcclusionFractions) {
   const Mixture two{{-0.5, 0.5}, {0.3, 0.7}};
-  const std::vector<PowerMomentsF> moments(3, ToFloat(two.Moments()));
+  const std::vector<PowerMomentsF> moments(3, ToFloat(two.Powers()));
   const std::vector<float> z_f = {-0.75f, 0.0f, 0.75f};
   std::vector<float> out(3);
   OcclusionFractions(moments, z_f, out);

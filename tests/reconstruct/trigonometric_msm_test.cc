@@ -8,6 +8,8 @@
 #include <random>
 #include <vector>
 
+#include "tests/reconstruct/depth_mixture.h"
+
 namespace transient {
 namespace {
 
@@ -27,33 +29,7 @@ constexpr double kFloatTolerance = 0.02;
 constexpr double kLightLeak = 0.02;
 constexpr double kLightLeakFloat = 0.02;
 
-// A depth distribution Σ w_l δ_{z_l} on [-1, 1] (weights sum to 1).
-struct Mixture {
-  std::vector<double> z, w;
-
-  TrigonometricMoments Moments() const {
-    TrigonometricMoments t{};
-    for (size_t l = 0; l < z.size(); ++l) {
-      const double phi = TrigonometricPhase(z[l]);
-      t[0] += w[l];
-      t[1] += w[l] * std::cos(phi);
-      t[2] += w[l] * std::sin(phi);
-      t[3] += w[l] * std::cos(2.0 * phi);
-      t[4] += w[l] * std::sin(2.0 * phi);
-    }
-    return t;
-  }
-  double FractionInFront(double z_f) const {
-    double f = 0.0;
-    for (size_t l = 0; l < z.size(); ++l) f += z[l] < z_f ? w[l] : 0.0;
-    return f;
-  }
-  double DistanceTo(double z_f) const {
-    double d = kInf;
-    for (const double zl : z) d = std::min(d, std::abs(zl - z_f));
-    return d;
-  }
-};
+using Mixture = testing::DepthMixture;  // tests/reconstruct/depth_mixture.h
 
 TrigonometricMomentsF ToFloat(const TrigonometricMoments& t) {
   TrigonometricMomentsF f;
@@ -100,10 +76,10 @@ TEST(TrigonometricMsm, OneSurfaceGivesTheExactFractionUpToTheBias) {
     for (const double z_f : {-1.0, -0.8, -0.2, 0.1, 0.5, 0.9, 1.0, 1.05}) {
       if (m.DistanceTo(z_f) < 0.1) continue;
       const double truth = m.FractionInFront(z_f);
-      const double reference = TrigonometricOcclusionReference(m.Moments(), z_f, kAlpha64);
+      const double reference = TrigonometricOcclusionReference(m.Trigonometric(), z_f, kAlpha64);
       EXPECT_LE(reference, truth + kAlpha64) << "z = " << z << ", z_f = " << z_f;
       EXPECT_GE(reference, truth - kLightLeak) << "z = " << z << ", z_f = " << z_f;
-      EXPECT_NEAR(TrigonometricOcclusion(ToFloat(m.Moments()), z_f, kAlpha64), truth,
+      EXPECT_NEAR(TrigonometricOcclusion(ToFloat(m.Trigonometric()), z_f, kAlpha64), truth,
                   kLightLeakFloat)
           << "z = " << z << ", z_f = " << z_f;
     }
@@ -120,11 +96,11 @@ TEST(TrigonometricMsm, TwoSurfacesGiveTheExactFractionUpToTheBias) {
     for (double z_f = -1.0; z_f <= 1.1; z_f += 0.05) {
       if (m.DistanceTo(z_f) < 0.1) continue;
       const double truth = m.FractionInFront(z_f);
-      const double reference = TrigonometricOcclusionReference(m.Moments(), z_f, kAlpha64);
+      const double reference = TrigonometricOcclusionReference(m.Trigonometric(), z_f, kAlpha64);
       EXPECT_LE(reference, truth + kAlpha64) << "z_f = " << z_f;
       EXPECT_GE(reference, truth - kLightLeak) << "z = (" << m.z[0] << ", " << m.z[1]
                                                << "), z_f = " << z_f;
-      EXPECT_NEAR(TrigonometricOcclusion(ToFloat(m.Moments()), z_f, kAlpha64), truth,
+      EXPECT_NEAR(TrigonometricOcclusion(ToFloat(m.Trigonometric()), z_f, kAlpha64), truth,
                   kLightLeakFloat)
           << "z = (" << m.z[0] << ", " << m.z[1] << "), z_f = " << z_f;
     }
@@ -136,7 +112,7 @@ TEST(TrigonometricMsm, BoundNeverExceedsTheTruthByMoreThanTheBias) {
   std::uniform_real_distribution<double> query(-1.1, 1.1);
   for (int trial = 0; trial < 300; ++trial) {
     const Mixture m = RandomMixture(trial, rng);
-    const TrigonometricMoments t = m.Moments();
+    const TrigonometricMoments t = m.Trigonometric();
     for (int k = 0; k < 8; ++k) {
       const double z_f = query(rng);
       const double bound = TrigonometricOcclusionReference(t, z_f, kAlpha64);
@@ -154,7 +130,7 @@ constexpr double kMonotoneSlack = 4 * kAlpha64;
 TEST(TrigonometricMsm, BoundIsNonDecreasingUpToTheBiasInTheQueryDepth) {
   std::mt19937_64 rng(11);
   for (int trial = 0; trial < 60; ++trial) {
-    const TrigonometricMoments t = RandomMixture(trial, rng).Moments();
+    const TrigonometricMoments t = RandomMixture(trial, rng).Trigonometric();
     double previous = 0.0;
     for (double z_f = -1.1; z_f <= 1.1; z_f += 0.01) {
       const double bound = TrigonometricOcclusionReference(t, z_f, kAlpha64);
@@ -170,7 +146,7 @@ TEST(TrigonometricMsm, FloatAgreesWithTheReference) {
   double worst = 0.0;
   for (int trial = 0; trial < 300; ++trial) {
     const Mixture m = RandomMixture(trial, rng);
-    const TrigonometricMoments t = m.Moments();
+    const TrigonometricMoments t = m.Trigonometric();
     for (int k = 0; k < 8; ++k) {
       const double z_f = query(rng);
       if (m.DistanceTo(z_f) < 0.01) continue;  // the bound jumps at a surface
@@ -190,8 +166,8 @@ TEST(TrigonometricMsm, NearSingularInputStaysFiniteAndInTheUnitInterval) {
   for (const Mixture& m : mixtures) {
     for (double z_f = -1.2; z_f <= 1.2; z_f += 0.01) {
       for (const double alpha : {0.0, kTrigonometricBias128, kAlpha64}) {
-        const double reference = TrigonometricOcclusionReference(m.Moments(), z_f, alpha);
-        const float single = TrigonometricOcclusion(ToFloat(m.Moments()), z_f, alpha);
+        const double reference = TrigonometricOcclusionReference(m.Trigonometric(), z_f, alpha);
+        const float single = TrigonometricOcclusion(ToFloat(m.Trigonometric()), z_f, alpha);
         EXPECT_TRUE(reference >= 0.0 && reference <= 1.0) << reference;
         EXPECT_TRUE(single >= 0.0f && single <= 1.0f) << single;
       }
@@ -200,7 +176,7 @@ TEST(TrigonometricMsm, NearSingularInputStaysFiniteAndInTheUnitInterval) {
 }
 
 TEST(TrigonometricMsm, InvalidInputGivesZeroNeverNaN) {
-  const TrigonometricMoments valid = Mixture{{0.0}, {1.0}}.Moments();
+  const TrigonometricMoments valid = Mixture{{0.0}, {1.0}}.Trigonometric();
   EXPECT_EQ(TrigonometricOcclusionReference(valid, kNaN, kAlpha64), 0.0);
   EXPECT_EQ(TrigonometricOcclusion(ToFloat(valid), NAN, kAlpha64), 0.0f);
   // Far behind the only surface the bound still saturates near 1, not NaN.
@@ -222,10 +198,10 @@ TEST(TrigonometricMsm, InvalidInputGivesZeroNeverNaN) {
 
 TEST(TrigonometricMsm, CoverageBelowOneIsDividedOut) {
   const Mixture m{{-0.3, 0.6}, {0.5, 0.5}};
-  TrigonometricMoments half = m.Moments();
+  TrigonometricMoments half = m.Trigonometric();
   for (double& v : half) v *= 0.5;
   EXPECT_NEAR(TrigonometricOcclusionReference(half, 0.2, kAlpha64),
-              TrigonometricOcclusionReference(m.Moments(), 0.2, kAlpha64), 1e-12);
+              TrigonometricOcclusionReference(m.Trigonometric(), 0.2, kAlpha64), 1e-12);
 }
 
 }  // namespace
