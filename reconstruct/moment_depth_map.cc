@@ -112,7 +112,7 @@ __attribute__((target_clones("arch=x86-64-v3", "default"))) Counts DepthToPlanes
     const float d = depth[p];
     const uint32_t valid = NonFinite(d) ? 0u : kAll;
     invalid += valid ? 0 : 1;
-    clamped += ((d < n.near_f) | (d > n.far_f)) & (valid != 0) ? 1 : 0;
+    clamped += (((d < n.near_f) | (d > n.far_f)) & (valid != 0)) ? 1 : 0;
     const float z =
         Blend(valid, std::min(std::max(std::fma(d, n.scale, n.offset), -1.0f), 1.0f), 0.0f);
     const float z2 = z * z;

@@ -208,7 +208,13 @@ constexpr int kBatchBlock = 256;
 // std::max(x, k) = x < k ? k : x is _mm256_max_ps(k, x) (MAXPS returns its second operand when
 // the first is not greater, NaN included), std::min(a, c) = c < a ? c : a is _mm256_min_ps(c, a);
 // comparisons are ordered (false on NaN), like C++'s.
+#if defined(__clang__)
+// Clang contracts only within one source expression (-ffp-contract=on), and these kernels
+// spell every multiply and add as its own intrinsic: nothing is fused that is not written so.
+#define TRANSIENT_AVX2_FMA __attribute__((target("avx2,fma")))
+#else
 #define TRANSIENT_AVX2_FMA __attribute__((target("avx2,fma"), optimize("fp-contract=off")))
+#endif
 
 // All-ones exponent (NaN or infinity), as integer lanes of -1 / 0.
 TRANSIENT_AVX2_FMA inline __m256i NonFinite8(__m256 v) {

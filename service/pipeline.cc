@@ -161,7 +161,7 @@ void Subscription::Push(std::shared_ptr<const PublishedFrame> frame) {
 std::shared_ptr<const PublishedFrame> Subscription::Next(absl::Duration timeout,
                                                          uint64_t* missed) {
   absl::MutexLock lock(&mu_);
-  auto ready = [this]() -> bool { return closed_ || !queue_.empty(); };
+  auto ready = [this]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) { return closed_ || !queue_.empty(); };
   mu_.AwaitWithTimeout(absl::Condition(&ready), timeout);
   if (queue_.empty()) return nullptr;
   std::shared_ptr<const PublishedFrame> frame = std::move(queue_.front());
@@ -368,12 +368,12 @@ void Pipeline::Impl::PushCycle(CycleItem item) {
     return;
   }
   const size_t capacity = static_cast<size_t>(std::max(1, options.cycle_queue_frames));
-  auto frames_queued = [this]() {
+  auto frames_queued = [this]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(queue_mu) {
     return static_cast<size_t>(std::count_if(cycles.begin(), cycles.end(),
                                              [](const CycleItem& c) { return !c.announcement; }));
   };
   if (block_when_full) {
-    auto has_room = [this, capacity, &frames_queued]() -> bool {
+    auto has_room = [this, capacity, &frames_queued]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(queue_mu) {
       return stopping.load() || frames_queued() < capacity;
     };
     while (!has_room()) queue_mu.AwaitWithTimeout(absl::Condition(&has_room), kNextTimeout);
@@ -726,7 +726,7 @@ void Pipeline::Impl::ReconstructLoop() {
     std::optional<CycleItem> item;
     {
       absl::MutexLock lock(&queue_mu);
-      auto ready = [this]() -> bool {
+      auto ready = [this]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(queue_mu) {
         return stopping.load() || !cycles.empty();
       };
       queue_mu.AwaitWithTimeout(absl::Condition(&ready), kNextTimeout);
@@ -1111,7 +1111,7 @@ absl::StatusOr<RecordingStatus> Pipeline::StopRecording() {
                            impl_->recording.error, impl_->recording.error.empty() ? "" : ")"));
   }
   impl_->stop_recording_requested = true;
-  auto stopped = [this]() -> bool {
+  auto stopped = [this]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(impl_->mu) {
     return !impl_->recording.active || impl_->stopping.load();
   };
   if (!impl_->mu.AwaitWithTimeout(absl::Condition(&stopped), absl::Seconds(10))) {
@@ -1132,9 +1132,10 @@ PipelineStats Pipeline::Stats() const {
   if (s.frames_reconstructed > 0) {
     s.reconstruct_ms_mean = impl_->reconstruct_ms_total / s.frames_reconstructed;
   }
-  const auto& times = impl_->reconstruct_times;
-  if (times.size() >= 2) {
-    s.frames_per_second = (times.size() - 1) / absl::ToDoubleSeconds(times.back() - times.front());
+  if (impl_->reconstruct_times.size() >= 2) {
+    s.frames_per_second =
+        (impl_->reconstruct_times.size() - 1) /
+        absl::ToDoubleSeconds(impl_->reconstruct_times.back() - impl_->reconstruct_times.front());
   }
   for (const auto& sub : impl_->subscriptions) {
     s.subscribers.push_back(SubscriberSnapshot{.id = sub->id(),

@@ -7,14 +7,14 @@
 #include <numbers>
 #include <set>
 
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 
 namespace transient {
 namespace {
 
 using ::testing::HasSubstr;
-using ::transient::tools::testing::IsOk;
-using ::transient::tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kExact = 1e-14;  // a few ulps of sums of n_phi <= 64 terms of order 1
@@ -92,6 +92,7 @@ TEST(AcquisitionSchedule, ArccosSubExposuresHaveEqualWeightsAtArccosPhases) {
       mean_sin += s.weight * std::sin(s.phase_shift_rad);
     }
     EXPECT_NEAR(total, 1.0, kExact);
+    EXPECT_NEAR(mean_cos, 0.0, kExact) << "n_phi = " << n;
     // sum_k (1 - (2k+1)/n) = 0: the gain is purely imaginary, -i * mean sin(theta_k).
     const Complex g = schedule.nominal_gain();
     EXPECT_NEAR(g.real(), 0.0, kExact) << "n_phi = " << n;

@@ -16,15 +16,15 @@
 #include <string>
 #include <vector>
 
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 
 namespace transient::service {
 namespace {
 
 using ::testing::AllOf;
 using ::testing::HasSubstr;
-using ::transient::tools::testing::IsOk;
-using ::transient::tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 // Deliberately odd and non-square, like a real ToF sensor (not a power of two).
 constexpr ImageGeometry kSensor{.width = 163, .height = 120};
@@ -708,7 +708,9 @@ MomentDepthMap SlantedPlaneMap(MomentMapFormat format) {
   absl::StatusOr<MomentDepthMapBuilder> builder = MomentDepthMapBuilder::Create(
       kSensor, {.normalisation = {.near_m = 0.5, .far_m = 5.0}, .sigma_px = 1.0, .format = format});
   EXPECT_THAT(builder.status(), IsOk());
-  if (builder.ok()) EXPECT_THAT(builder->Build(depth, &map), IsOk());
+  if (builder.ok()) {
+    EXPECT_THAT(builder->Build(depth, &map), IsOk());
+  }
   return map;
 }
 

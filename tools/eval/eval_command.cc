@@ -70,8 +70,9 @@ std::string TruthDescription(TruthKind truth, const ExperimentOptions& o) {
   return "";
 }
 
-std::string Number(double value, const char* format) {
-  return std::isfinite(value) ? absl::StrFormat(format, value) : std::string("–");
+// `digits` after the decimal point; a dash for no value.
+std::string Number(double value, int digits) {
+  return std::isfinite(value) ? absl::StrFormat("%.*f", digits, value) : std::string("–");
 }
 
 std::string JsonNumber(double value) {
@@ -248,10 +249,10 @@ std::string FormatMarkdown(const ExperimentResult& result, const ExperimentOptio
           row.order > 0 ? absl::StrCat(row.order) : "–", " | ",
           MethodFrequencies(row.method, row.order), " | ",
           absl::StrFormat("%.0f%%", 100.0 * row.found_share), " | ",
-          Number(row.emd_mean_ns, "%.3f"), " | ", Number(row.emd_median_ns, "%.3f"), " | ",
-          Number(row.range_error_mm.mean, "%.2f"), " | ", Number(row.range_error_mm.rmse, "%.2f"),
-          " | ", Number(row.range_error_mm.p95_abs, "%.2f"), " | ",
-          Number(row.time_per_pixel_us, "%.2f"), " |\n");
+          Number(row.emd_mean_ns, 3), " | ", Number(row.emd_median_ns, 3), " | ",
+          Number(row.range_error_mm.mean, 2), " | ", Number(row.range_error_mm.rmse, 2),
+          " | ", Number(row.range_error_mm.p95_abs, 2), " | ",
+          Number(row.time_per_pixel_us, 2), " |\n");
     }
   }
   return md;
