@@ -5,7 +5,7 @@ JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 BENCH_ARGS ?=
 
-.PHONY: deps build test test-release test-sanitize demo demo-files pictures eval bench clean
+.PHONY: deps build test demo demo-files pictures eval bench clean
 
 deps:
 	bash tools/install_deps.sh
@@ -14,19 +14,10 @@ build: deps
 	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_TESTS=OFF $(CMAKE_FLAGS)
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
-# All tests: the Release build, then the same suite under AddressSanitizer + UBSan.
-test: deps test-release test-sanitize
-
-test-release:
-	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_TESTS=ON $(CMAKE_FLAGS)
-	cmake --build $(BUILD_DIR) -j $(JOBS)
-	ctest --test-dir $(BUILD_DIR) --output-on-failure -j $(JOBS)
-
-# Line tables only (-g1): sanitizer reports keep file:line, and the build is faster than with -g.
-test-sanitize:
-	cmake -S . -B $(ASAN_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-g1 -DCMAKE_C_FLAGS_DEBUG=-g1 -DTRANSIENT_BUILD_TESTS=ON -DTRANSIENT_SANITIZE=ON $(CMAKE_FLAGS)
-	cmake --build $(ASAN_DIR) -j $(JOBS)
-	ctest --test-dir $(ASAN_DIR) --output-on-failure -j $(JOBS)
+# All tests: the whole suite once under ASan + UBSan (Clang, thread-safety analysis, warnings as
+# errors), then the tests that need an optimised build in GCC Release; prints each phase's time.
+test: deps
+	JOBS=$(JOBS) CMAKE_FLAGS="$(CMAKE_FLAGS)" bash tools/scripts/test.sh $(ASAN_DIR) $(BUILD_DIR)
 
 TRANSIENT = $(BUILD_DIR)/tools/transient/transient
 # The product's main job: transientd on the simulated mirrors scene (thesis fig. 8.7) and

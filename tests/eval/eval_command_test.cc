@@ -4,28 +4,22 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <stdlib.h>
 
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 
 namespace transient::eval {
 namespace {
 
 using ::testing::HasSubstr;
-using transient::tools::testing::IsOk;
-using transient::tools::testing::StatusIs;
-
-std::string ScratchDirectory() {
-  std::string pattern =
-      (std::filesystem::temp_directory_path() / "transient-eval-test-XXXXXX").string();
-  const char* made = mkdtemp(pattern.data());
-  return made == nullptr ? std::string() : std::string(made);
-}
+using ::transient::testing::IsOk;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 std::string ReadFile(const std::filesystem::path& path) {
   std::ifstream file(path);
@@ -53,15 +47,13 @@ TEST(EvalArgs, NonPositiveTrialsAreRejected) {
 }
 
 TEST(RunEval, UnwritableOutputIsRejectedBeforeAnyWork) {
-  const std::string dir = ScratchDirectory();
-  ASSERT_FALSE(dir.empty());
-  const std::string file = dir + "/a-file";
+  ScratchDirectory scratch;
+  const std::string file = scratch.File("a-file");
   std::ofstream(file) << "x";
   EvalArgs args;
   args.output_dir = file + "/eval";  // under a regular file: cannot be created
   EXPECT_THAT(RunEval(args).status(),
               StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--out")));
-  std::filesystem::remove_all(dir);
 }
 
 TEST(Experiments, PisarenkoIsExactOnNoiseFreeKSparseResponsesWithKEqualToM) {
@@ -132,10 +124,9 @@ TEST(Experiments, MeseCutsTheCornersRangeErrorSeveralTimesComparedToTheNaivePhas
 }
 
 TEST(RunEval, WritesTheReportWithARowPerMethodNoiseAndOrder) {
-  const std::string dir = ScratchDirectory();
-  ASSERT_FALSE(dir.empty());
+  ScratchDirectory scratch;
   EvalArgs args;
-  args.output_dir = dir + "/eval";
+  args.output_dir = scratch.File("eval");
   args.trials = 2;
   ExperimentOptions options;
   options.corner_width = 24;
@@ -176,7 +167,6 @@ TEST(RunEval, WritesTheReportWithARowPerMethodNoiseAndOrder) {
   EXPECT_THAT(json, HasSubstr("\"method\": \"Godbaz 2-Dirac\""));
   const std::string svg = ReadFile(std::filesystem::path(args.output_dir) / "corner_top_view.svg");
   EXPECT_THAT(svg, HasSubstr("depth z (m)"));
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

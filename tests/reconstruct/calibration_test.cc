@@ -8,14 +8,14 @@
 #include <random>
 #include <vector>
 
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 
 namespace transient {
 namespace {
 
 using ::testing::HasSubstr;
-using ::transient::tools::testing::IsOk;
-using ::transient::tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 constexpr double kPi = std::numbers::pi;
 // Factors and moments are float32: a division, a product and the conversions cost a few ulps.

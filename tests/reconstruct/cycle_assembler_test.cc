@@ -7,15 +7,15 @@
 #include <random>
 #include <vector>
 
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 #include "transient/reconstruct/demodulation.h"
 
 namespace transient {
 namespace {
 
 using ::testing::HasSubstr;
-using ::transient::tools::testing::IsOk;
-using ::transient::tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 constexpr ImageGeometry kGeometry{5, 4};
 

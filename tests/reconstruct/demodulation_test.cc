@@ -11,15 +11,15 @@
 #include <string>
 #include <vector>
 
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 
 namespace transient {
 namespace {
 
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
-using ::transient::tools::testing::IsOk;
-using ::transient::tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 constexpr double kPi = std::numbers::pi;
 // Raw values are ~60 sensor units in float32 (ulp ~4e-6); a phasor is a few differences of them

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 #include "transient/reconstruct/kernels.h"
 
 namespace transient {
@@ -19,8 +19,8 @@ namespace {
 
 using ::testing::AllOf;
 using ::testing::HasSubstr;
-using tools::testing::IsOk;
-using tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 constexpr float kInfF = std::numeric_limits<float>::infinity();

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "absl/strings/str_format.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 #include "transient/reconstruct/kernels.h"
 
 namespace transient {
@@ -19,8 +19,8 @@ namespace {
 
 using ::testing::AllOf;
 using ::testing::HasSubstr;
-using ::transient::tools::testing::IsOk;
-using ::transient::tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 // Fast path vs double reference: each pass sums 2r + 1 <= 15 float products of values in
 // [-1, 1] with a float-rounded normalised kernel (weights off by 2^-24 relative), so an output

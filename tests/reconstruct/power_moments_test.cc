@@ -11,14 +11,14 @@
 #include <vector>
 
 #include "tests/reconstruct/depth_mixture.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 
 namespace transient {
 namespace {
 
 using ::testing::HasSubstr;
-using tools::testing::IsOk;
-using tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();

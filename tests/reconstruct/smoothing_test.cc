@@ -7,14 +7,14 @@
 #include <random>
 #include <vector>
 
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 
 namespace transient {
 namespace {
 
 using ::testing::HasSubstr;
-using ::transient::tools::testing::IsOk;
-using ::transient::tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 // float32 sums of at most (2*31)^2 terms of order 1, divided by a float32 weight sum.
 constexpr double kFloatRelative = 2e-5;

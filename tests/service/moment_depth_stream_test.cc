@@ -13,7 +13,7 @@
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "tests/service/daemon_fixture.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 #include "transient/reconstruct/moment_depth_map.h"
 #include "transient/service/grpc_status.h"
 #include "transient/service/image_encoding.h"
@@ -24,8 +24,8 @@ namespace {
 
 using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;
-using ::transient::tools::testing::IsOk;
-using ::transient::tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 constexpr ImageGeometry kSensor{32, 24};

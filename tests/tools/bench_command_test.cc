@@ -6,13 +6,13 @@
 
 #include <algorithm>
 
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 
 namespace transient::tools {
 namespace {
 
 using ::testing::HasSubstr;
-using testing::StatusIs;
+using ::transient::testing::StatusIs;
 
 TEST(BenchCommand, RefusesBadOptionsNamingThem) {
   BenchArgs args;

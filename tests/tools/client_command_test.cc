@@ -33,8 +33,8 @@
 #include "absl/time/time.h"
 #include "tests/service/daemon_fixture.h"
 #include "tests/tools/image_readers.h"
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "tools/transient/image_writers.h"
 #include "transient/drivers/capture_file.h"
 #include "transient/drivers/capture_source.h"
@@ -51,9 +51,9 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::Not;
 using ::testing::UnorderedElementsAreArray;
-using testing::IsOk;
-using testing::ScratchDirectory;
-using testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
 

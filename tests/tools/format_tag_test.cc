@@ -4,14 +4,14 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 
 namespace transient::tools {
 namespace {
 
 using ::testing::HasSubstr;
-using testing::IsOk;
-using testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 TEST(FormatTag, AcceptsTheMajorVersionWithOrWithoutAMinorVersion) {
   EXPECT_THAT(CheckFormatTag("transient-moments 1", "transient-moments", 1), IsOk());

@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "tests/tools/image_readers.h"
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 
 namespace transient::tools {
 namespace {
@@ -23,15 +23,15 @@ using ::testing::ElementsAreArray;
 using ::testing::HasSubstr;
 using testing::ReadPng;
 using testing::ReadTiff;
-using testing::ScratchDirectory;
-using testing::StatusIs;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 TEST(WritePng16, ReadsBackExactlyWithBigEndianSamples) {
   ScratchDirectory dir;
   const ImageGeometry geometry{.width = 4, .height = 3};
   const std::vector<uint16_t> pixels = {0,      1,      255,    256,   0x1234, 0xff00,
                                         0x00ff, 0xfffe, 0xffff, 32767, 32768,  4242};
-  ASSERT_THAT(WritePng16(dir.File("depth.png"), geometry, pixels), testing::IsOk());
+  ASSERT_THAT(WritePng16(dir.File("depth.png"), geometry, pixels), ::transient::testing::IsOk());
 
   const testing::RawPng png = ReadPng(dir.File("depth.png"));
   EXPECT_EQ(png.width, 4u);
@@ -50,7 +50,7 @@ TEST(WritePng8, GrayAndRgbReadBackExactly) {
   ScratchDirectory dir;
   const ImageGeometry geometry{.width = 3, .height = 2};
   const std::vector<uint8_t> gray = {0, 1, 2, 127, 128, 255};
-  ASSERT_THAT(WritePng8(dir.File("flags.png"), geometry, gray), testing::IsOk());
+  ASSERT_THAT(WritePng8(dir.File("flags.png"), geometry, gray), ::transient::testing::IsOk());
   const testing::RawPng gray_png = ReadPng(dir.File("flags.png"));
   EXPECT_EQ(gray_png.bit_depth, 8);
   EXPECT_EQ(gray_png.colour_type, PNG_COLOR_TYPE_GRAY);
@@ -58,7 +58,7 @@ TEST(WritePng8, GrayAndRgbReadBackExactly) {
 
   std::vector<uint8_t> rgb(geometry.pixel_count() * 3);
   for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = static_cast<uint8_t>(i * 13);
-  ASSERT_THAT(WritePngRgb8(dir.File("slice.png"), geometry, rgb), testing::IsOk());
+  ASSERT_THAT(WritePngRgb8(dir.File("slice.png"), geometry, rgb), ::transient::testing::IsOk());
   const testing::RawPng rgb_png = ReadPng(dir.File("slice.png"));
   EXPECT_EQ(rgb_png.width, 3u);
   EXPECT_EQ(rgb_png.height, 2u);
@@ -75,7 +75,7 @@ TEST(WriteTiffFloat, ReadsBackBitForBitIncludingNanAndInfinity) {
       0.0f, -0.0f, 1.5f, nan, std::numeric_limits<float>::infinity(),
       -std::numeric_limits<float>::infinity(), std::numeric_limits<float>::denorm_min(),
       3.14159265f, 1e30f, -2.75f};
-  ASSERT_THAT(WriteTiffFloat(dir.File("range.tiff"), geometry, pixels), testing::IsOk());
+  ASSERT_THAT(WriteTiffFloat(dir.File("range.tiff"), geometry, pixels), ::transient::testing::IsOk());
 
   const testing::RawTiff tiff = ReadTiff(dir.File("range.tiff"));
   EXPECT_EQ(tiff.width, 5u);

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "tests/tools/test_files.h"
 #include "tools/transient/capture_commands.h"
 #include "tools/transient/reconstruct_command.h"
@@ -22,10 +22,10 @@ namespace transient::tools {
 namespace {
 
 using ::testing::HasSubstr;
-using testing::IsOk;
+using ::transient::testing::IsOk;
 using testing::ReadFloatDataset;
-using testing::ScratchDirectory;
-using testing::StatusIs;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 // A small sensor keeps the suite fast; the scenes scale with the image.
 constexpr char kCamera[] = "width=48&height=36&camera_seed=7";

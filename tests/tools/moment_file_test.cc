@@ -8,8 +8,8 @@
 #include <cmath>
 #include <random>
 
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "tests/tools/test_files.h"
 #include "transient/drivers/h5.h"
 #include "transient/reconstruct/moments.h"
@@ -19,10 +19,10 @@ namespace {
 
 using ::testing::ElementsAreArray;
 using ::testing::HasSubstr;
-using testing::IsOk;
+using ::transient::testing::IsOk;
 using testing::MomentStack;
-using testing::ScratchDirectory;
-using testing::StatusIs;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 using testing::StoredFloat;
 using testing::StoredString;
 using testing::WriteMomentFile;

@@ -7,8 +7,8 @@
 
 #include <random>
 
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "tools/transient/moment_file.h"
 
 namespace transient::tools {
@@ -16,9 +16,9 @@ namespace {
 
 using ::testing::ElementsAreArray;
 using ::testing::HasSubstr;
-using testing::IsOk;
-using testing::ScratchDirectory;
-using testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 MomentImage RandomImage(ImageGeometry geometry, int order, uint64_t seed) {
   MomentImage image(geometry, order);

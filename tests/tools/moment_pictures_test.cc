@@ -16,12 +16,12 @@
 #include <utility>
 #include <vector>
 
-#include <opencv2/videoio.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "tests/tools/image_readers.h"
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/video_probe.h"
+#include "tests/support/status_matchers.h"
 #include "tests/tools/view_test_files.h"
 #include "tools/transient/capture_commands.h"
 #include "tools/transient/exit_status.h"
@@ -33,10 +33,10 @@ namespace {
 
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
-using testing::IsOk;
+using ::transient::testing::IsOk;
 using testing::ReadPng;
-using testing::ScratchDirectory;
-using testing::StatusIs;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 // A box at Z = 2 m (columns 6..29, rows 5..34) in front of a wall at Z = 3 m, seen by a 64x40
 // camera; every depth in [1.5, 3.5] m.
@@ -368,16 +368,11 @@ TEST_F(MomentView, WritesEveryPictureOfEveryFrameAtItsFiguresSize) {
   expect_size("shadow_sigma_0.5.png", pictures->ShadowFigure(0));
   expect_size("compare_sigma_1.png", pictures->ComparisonFigure());
 
-  cv::VideoCapture video((out() / "moment_plane.mp4").string(), cv::CAP_FFMPEG);
-  ASSERT_TRUE(video.isOpened());
-  int frames = 0;
-  cv::Mat image, last;
-  while (video.read(image)) {
-    ++frames;
-    last = image.clone();
-  }
-  EXPECT_EQ(frames, testing::kViewFrames);
-  EXPECT_EQ(last.size(), pictures->VideoFrameFigure().size());
+  absl::StatusOr<::transient::testing::VideoInfo> video =
+      ::transient::testing::ProbeVideo((out() / "moment_plane.mp4").string());
+  ASSERT_THAT(video.status(), IsOk());
+  EXPECT_EQ(video->frames, testing::kViewFrames);
+  EXPECT_EQ(cv::Size(video->width, video->height), pictures->VideoFrameFigure().size());
 }
 
 TEST_F(MomentView, BadOptionsExitWithTwoBeforeAnythingIsWritten) {

@@ -14,8 +14,8 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/match.h"
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "tests/tools/test_files.h"
 #include "tools/transient/exit_status.h"
 #include "tools/transient/reconstruct_command.h"
@@ -27,9 +27,9 @@ using ::testing::AllOf;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::Not;
-using testing::ScratchDirectory;
+using ::transient::testing::ScratchDirectory;
 using ::testing::StartsWith;
-using testing::StatusIs;
+using ::transient::testing::StatusIs;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 

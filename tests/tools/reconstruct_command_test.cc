@@ -13,8 +13,8 @@
 #include <random>
 #include <tuple>
 
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "tests/tools/test_files.h"
 #include "transient/reconstruct/moments.h"
 
@@ -25,7 +25,7 @@ using ::testing::Each;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::IsNan;
-using testing::IsOk;
+using ::transient::testing::IsOk;
 using testing::MomentStack;
 using ::testing::Not;
 using testing::ObjectExists;
@@ -33,8 +33,8 @@ using testing::ReadFloatDataset;
 using testing::ReadRootDoubleAttribute;
 using testing::ReadRootStringAttribute;
 using testing::ReadUint8Dataset;
-using testing::ScratchDirectory;
-using testing::StatusIs;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 using testing::StoredFloat;
 
 constexpr double kBaseFrequencyHz = 23e6;

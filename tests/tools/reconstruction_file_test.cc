@@ -6,8 +6,8 @@
 
 #include <cmath>
 
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "tests/tools/test_files.h"
 #include "transient/drivers/h5.h"
 
@@ -17,11 +17,11 @@ namespace {
 using ::testing::Each;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
-using testing::IsOk;
+using ::transient::testing::IsOk;
 using testing::ObjectExists;
 using testing::ReadFloatDataset;
-using testing::ScratchDirectory;
-using testing::StatusIs;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 constexpr ImageGeometry kGeometry = {.width = 5, .height = 3};
 

@@ -6,8 +6,8 @@
 
 #include <cmath>
 
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "tests/tools/test_files.h"
 #include "tests/tools/view_test_files.h"
 
@@ -15,9 +15,9 @@ namespace transient::tools {
 namespace {
 
 using ::testing::HasSubstr;
-using testing::IsOk;
-using testing::ScratchDirectory;
-using testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 TEST(ReconstructionReader, ReadsBackEveryProductTheWriterWrote) {
   ScratchDirectory dir;

@@ -12,7 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
-#include "tests/tools/scratch_directory.h"
+#include "tests/support/scratch_directory.h"
 #include "tests/tools/test_files.h"
 
 namespace transient::tools {
@@ -22,7 +22,7 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::IsEmpty;
 using ::testing::MatchesRegex;
-using testing::ScratchDirectory;
+using ::transient::testing::ScratchDirectory;
 using ::testing::SizeIs;
 using ::testing::StartsWith;
 

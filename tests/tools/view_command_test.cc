@@ -11,11 +11,11 @@
 #include <fstream>
 #include <sstream>
 
-#include <opencv2/videoio.hpp>
 
 #include "tests/tools/image_readers.h"
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/video_probe.h"
+#include "tests/support/status_matchers.h"
 #include "tests/tools/test_files.h"
 #include "tests/tools/view_test_files.h"
 #include "tools/transient/exit_status.h"
@@ -27,10 +27,10 @@ namespace {
 
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
-using testing::IsOk;
+using ::transient::testing::IsOk;
 using testing::ReadPng;
-using testing::ScratchDirectory;
-using testing::StatusIs;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 constexpr ImageGeometry kGeometry = testing::kViewGeometry;
 
@@ -287,18 +287,14 @@ TEST(ViewCommand, VideoHasOneFramePerFrameAndTimeOfFlight) {
   absl::StatusOr<ViewSummary> summary = RunView(args);
   ASSERT_THAT(summary.status(), IsOk());
   EXPECT_EQ(summary->video_frames, 6);
-  cv::VideoCapture video(dir.File("out/light.mp4"), cv::CAP_FFMPEG);
-  ASSERT_TRUE(video.isOpened());
-  int frames = 0;
-  cv::Mat image, last;
-  while (video.read(image)) {
-    ++frames;
-    last = image.clone();
-  }
-  EXPECT_EQ(frames, 6);
+  absl::StatusOr<::transient::testing::VideoInfo> video =
+      ::transient::testing::ProbeVideo(dir.File("out/light.mp4"));
+  ASSERT_THAT(video.status(), IsOk());
+  EXPECT_EQ(video->frames, 6);
+  EXPECT_EQ(video->codec, "h264");
   const TransientFrame frame = ReadFrame(input, 0);
   const cv::Mat figure = RenderImageFigure(SliceFigure(frame, 0, summary->scales.density));
-  EXPECT_EQ(last.size(), figure.size());
+  EXPECT_EQ(cv::Size(video->width, video->height), figure.size());
   // Only the video and the frame directories; no temporary file is left.
   std::vector<std::string> entries;
   for (const auto& entry : std::filesystem::directory_iterator(dir.path() / "out")) {

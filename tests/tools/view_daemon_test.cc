@@ -13,7 +13,6 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
-#include <opencv2/videoio.hpp>
 #include <string>
 #include <thread>
 #include <vector>
@@ -23,8 +22,9 @@
 #include "absl/time/time.h"
 #include "tests/service/daemon_fixture.h"
 #include "tests/tools/image_readers.h"
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/video_probe.h"
+#include "tests/support/status_matchers.h"
 #include "tools/transient/client_command.h"
 #include "tools/transient/daemon_frame_source.h"
 #include "tools/transient/view_command.h"
@@ -38,9 +38,9 @@ namespace {
 using service::testing::Daemon;
 using ::testing::AllOf;
 using ::testing::HasSubstr;
-using testing::IsOk;
-using testing::ScratchDirectory;
-using testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 // The small simulated camera without noise: every frame of its static scene is the same, so
 // frames received by two subscribers can be compared value for value. 12.5 frames/s.
@@ -105,12 +105,10 @@ TEST(ViewDaemon, DrawsEveryPictureOfTheFramesReceived) {
   EXPECT_EQ(summary->ply_files, 3);
 
   EXPECT_EQ(summary->video_frames, 3 * kBins);
-  cv::VideoCapture video(dir.File("out/light.mp4"), cv::CAP_FFMPEG);
-  ASSERT_TRUE(video.isOpened());
-  int video_frames = 0;
-  cv::Mat image;
-  while (video.read(image)) ++video_frames;
-  EXPECT_EQ(video_frames, 3 * kBins);
+  absl::StatusOr<::transient::testing::VideoInfo> video =
+      ::transient::testing::ProbeVideo(dir.File("out/light.mp4"));
+  ASSERT_THAT(video.status(), IsOk());
+  EXPECT_EQ(video->frames, 3 * kBins);
   EXPECT_THAT(FormatViewSummary(*summary),
               HasSubstr(absl::StrCat(
                   "drew 3 frames of 32x24 px (transientd daemon:", daemon.address(), ")")));

@@ -14,8 +14,8 @@
 #include <gtest/gtest.h>
 
 #include "tests/drivers/files/test_captures.h"
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "transient/drivers/h5.h"
 
 namespace transient {
@@ -26,9 +26,9 @@ using ::testing::HasSubstr;
 using testing::TestCalibration;
 using testing::TestCamera;
 using testing::TestSchedule;
-using tools::testing::IsOk;
-using tools::testing::ScratchDirectory;
-using tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 TEST(CalibrationFile, RoundTripsEveryField) {
   ScratchDirectory scratch;

@@ -16,8 +16,8 @@
 #include <gtest/gtest.h>
 
 #include "tests/drivers/files/test_captures.h"
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "transient/drivers/capture_file.h"
 #include "transient/drivers/h5.h"
 
@@ -29,9 +29,9 @@ using testing::TestCamera;
 using testing::TestFrame;
 using testing::TestOptions;
 using testing::TestSchedule;
-using tools::testing::IsOk;
-using tools::testing::ScratchDirectory;
-using tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 constexpr int kWidth = 64, kHeight = 48;
 

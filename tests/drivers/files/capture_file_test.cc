@@ -14,8 +14,8 @@
 #include <gtest/gtest.h>
 
 #include "tests/drivers/files/test_captures.h"
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "transient/drivers/h5.h"
 
 namespace transient {
@@ -29,9 +29,9 @@ using testing::TestGroundTruth;
 using testing::TestOptions;
 using testing::TestSchedule;
 using testing::WriteTestCapture;
-using tools::testing::IsOk;
-using tools::testing::ScratchDirectory;
-using tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 // Bit-exact float comparison that treats NaN as equal to NaN.
 bool SameBits(const std::vector<float>& a, const std::vector<float>& b) {

@@ -10,8 +10,8 @@
 
 #include "source_openers.h"
 #include "tests/drivers/files/test_captures.h"
-#include "tests/tools/scratch_directory.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "transient/drivers/h5.h"
 
 namespace transient {
@@ -23,9 +23,9 @@ using testing::TestFrame;
 using testing::TestOptions;
 using testing::TestSchedule;
 using testing::WriteTestCapture;
-using tools::testing::IsOk;
-using tools::testing::ScratchDirectory;
-using tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::ScratchDirectory;
+using ::transient::testing::StatusIs;
 
 constexpr int64_t kFrames = 30;  // 3 cycles of TestSchedule's 10 raw frames
 constexpr absl::Duration kTimeout = absl::Seconds(5);

@@ -4,15 +4,15 @@
 
 #include <string>
 
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 #include "transient/drivers/simulator.h"
 
 namespace transient {
 namespace {
 
 using ::testing::HasSubstr;
-using tools::testing::IsOk;
-using tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 TEST(SimulatorUri, SceneAloneGivesTheDocumentedDefaults) {
   const absl::StatusOr<SimulatorOptions> o = ParseSimulatorUri("sim:mirrors");

@@ -11,15 +11,15 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "tests/drivers/sim/sim_test_util.h"
-#include "tests/tools/status_matchers.h"
+#include "tests/support/status_matchers.h"
 #include "transient/drivers/simulator.h"
 
 namespace transient::sim::testing {
 namespace {
 
 using ::testing::HasSubstr;
-using tools::testing::IsOk;
-using tools::testing::StatusIs;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
 
 constexpr absl::string_view kSmall = "pace=fast&width=24&height=16";
 

@@ -1,5 +1,5 @@
 // Per-test scratch directories.
-#include "tests/tools/scratch_directory.h"
+#include "tests/support/scratch_directory.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -8,7 +8,7 @@
 #include <atomic>
 #include <system_error>
 
-namespace transient::tools::testing {
+namespace transient::testing {
 
 ScratchDirectory::ScratchDirectory() {
   static std::atomic<int> counter{0};
@@ -17,7 +17,7 @@ ScratchDirectory::ScratchDirectory() {
                                      : std::string("scratch");
   std::replace(name.begin(), name.end(), '/', '_');  // parameterized tests' names
   path_ = std::filesystem::path(::testing::TempDir()) /
-          ("transient_tools_" + name + "_" + std::to_string(::getpid()) + "_" +
+          ("transient_" + name + "_" + std::to_string(::getpid()) + "_" +
            std::to_string(counter++));
   std::filesystem::remove_all(path_);
   std::filesystem::create_directories(path_);
@@ -37,4 +37,4 @@ std::vector<std::string> ScratchDirectory::Entries() const {
   return names;
 }
 
-}  // namespace transient::tools::testing
+}  // namespace transient::testing

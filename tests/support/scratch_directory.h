@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-namespace transient::tools::testing {
+namespace transient::testing {
 
 // Named after the running test; tests list it to check that nothing was left behind.
 class ScratchDirectory {
@@ -24,4 +24,4 @@ class ScratchDirectory {
   std::filesystem::path path_;
 };
 
-}  // namespace transient::tools::testing
+}  // namespace transient::testing

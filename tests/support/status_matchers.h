@@ -8,7 +8,7 @@
 
 #include "absl/status/status.h"
 
-namespace transient::tools::testing {
+namespace transient::testing {
 
 MATCHER(IsOk, "is OK") {
   *result_listener << "status " << arg;
@@ -24,4 +24,4 @@ MATCHER_P2(StatusIs, code, message_matcher,
          ::testing::Matches(message_matcher)(std::string(status.message()));
 }
 
-}  // namespace transient::tools::testing
+}  // namespace transient::testing
