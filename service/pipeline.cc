@@ -15,7 +15,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "transient/drivers/calibration_capture.h"
-#include "transient/drivers/calibration_file.h"
+#include "transient/formats/calibration_file.h"
 #include "transient/drivers/replay_source.h"
 #include "transient/drivers/simulator.h"
 #include "transient/reconstruct/cycle_assembler.h"

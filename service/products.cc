@@ -7,12 +7,12 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "transient/reconstruct/moments.h"
+#include "transient/reconstruct/physical_constants.h"
 
 namespace transient::service {
 namespace {
 
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
-constexpr double kSpeedOfLight = 299792458.0;
 
 std::vector<float> ZerothPlane(const SolvedImage& solved) {
   const int64_t pixels = solved.geometry.pixel_count();
@@ -24,22 +24,6 @@ std::vector<float> ZerothPlane(const SolvedImage& solved) {
   return c0;
 }
 
-// cos(angle between pixel p's ray and the optical axis), pinhole model: Z = range * this.
-double RangeToDepthFactor(const CameraInfo& camera, int64_t p) {
-  const int width = camera.geometry.width;
-  const double u = (p % width - camera.cx) / camera.fx;
-  const double v = (p / width - camera.cy) / camera.fy;
-  return 1.0 / std::sqrt(u * u + v * v + 1.0);
-}
-
-std::vector<float> DepthFromRange(std::span<const float> range_m, const CameraInfo& camera) {
-  std::vector<float> depth(range_m.size());
-  for (size_t p = 0; p < range_m.size(); ++p) {
-    depth[p] = static_cast<float>(range_m[p] * RangeToDepthFactor(camera, static_cast<int64_t>(p)));
-  }
-  return depth;
-}
-
 // The Pisarenko returns of every pixel as depths and weights (planar, m planes, as
 // MomentDepthMapBuilder::BuildFromReturns takes them): a return's phase is its range
 // (c phi / (4 pi f)), its depth that times the ray factor. Returns weaker than `threshold` times
@@ -49,7 +33,7 @@ void ReturnsAsDepth(const PisarenkoImage& pisarenko, const CameraInfo& camera,
                     std::vector<float>* weight) {
   const int64_t pixels = pisarenko.geometry.pixel_count();
   const int m = pisarenko.order;
-  const double metres_per_radian = kSpeedOfLight / (4.0 * std::numbers::pi * base_frequency_hz);
+  const double metres_per_radian = PhaseToRange(1.0, base_frequency_hz);
   depth_m->assign(static_cast<size_t>(m * pixels), std::numeric_limits<float>::quiet_NaN());
   weight->assign(static_cast<size_t>(m * pixels), 0.0f);
   for (int64_t p = 0; p < pixels; ++p) {
@@ -59,7 +43,9 @@ void ReturnsAsDepth(const PisarenkoImage& pisarenko, const CameraInfo& camera,
       if (w > largest) largest = w;  // false for NaN
     }
     if (!(largest > 0.0f)) continue;
-    const double factor = RangeToDepthFactor(camera, p);
+    const int width = camera.geometry.width;
+    const double factor =
+        PixelRay(camera.intrinsics, static_cast<double>(p % width), static_cast<double>(p / width)).z;
     for (int r = 0; r < m; ++r) {
       const size_t i = static_cast<size_t>(r * pixels + p);
       const float w = pisarenko.weight[i];
@@ -100,11 +86,11 @@ const char* ProductName(v1::Product product) {
 }
 
 double PhaseToTimeOfFlightNs(double phase_rad, double base_frequency_hz) {
-  return phase_rad / (kTwoPi * base_frequency_hz) * 1e9;
+  return PhaseToTimeOfFlight(phase_rad, base_frequency_hz) * 1e9;
 }
 
 double TimeOfFlightNsToPhase(double time_ns, double base_frequency_hz) {
-  const double phase = std::fmod(kTwoPi * base_frequency_hz * time_ns * 1e-9, kTwoPi);
+  const double phase = std::fmod(TimeOfFlightToPhase(time_ns * 1e-9, base_frequency_hz), kTwoPi);
   return phase < 0.0 ? phase + kTwoPi : phase;
 }
 
@@ -237,7 +223,10 @@ std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const Solve
     } else {
       MeseRange(s, range_options, out->range_m, out->flags);
     }
-    if (need_depth) out->depth_m = DepthFromRange(out->range_m, camera);
+    if (need_depth) {
+      out->depth_m.resize(pixels);
+      DepthFromRange(s.geometry, camera.intrinsics, out->range_m, out->depth_m);
+    }
   }
   if (p.Has(v1::AMPLITUDE)) {
     out->amplitude.resize(pixels);

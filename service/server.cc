@@ -13,6 +13,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "transient/reconstruct/kernels.h"
+#include "transient/reconstruct/moments.h"
+#include "transient/reconstruct/physical_constants.h"
 #include "transient/service/grpc_status.h"
 #include "transient/service/image_encoding.h"
 #include "transient/v1/transient.grpc.pb.h"
@@ -20,7 +22,6 @@
 namespace transient::service {
 namespace {
 
-constexpr double kSpeedOfLight = 299792458.0;
 constexpr int kDefaultSlices = 64;
 constexpr int kDefaultQueueFrames = 4;
 constexpr int kMaxQueueFrames = 64;
@@ -117,7 +118,7 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
   if (plan.request.products.Has(v1::MOMENT_DEPTH)) {
     const double base_frequency_hz = pipeline.schedule().options().base_frequency_hz;
     absl::StatusOr<MomentDepthSpec> spec = ResolveMomentDepthSpec(
-        r.moment_depth(), sensor, kSpeedOfLight / (2.0 * base_frequency_hz));
+        r.moment_depth(), sensor, UnambiguousRange(base_frequency_hz));
     if (!spec.ok()) return spec.status();
     plan.request.moment_depth = *spec;
   }
@@ -337,10 +338,10 @@ class TransientServer::Service final : public v1::Transient::Service {
     v1::CameraInfo* c = info->mutable_camera();
     c->set_width(camera.geometry.width);
     c->set_height(camera.geometry.height);
-    c->set_fx(camera.fx);
-    c->set_fy(camera.fy);
-    c->set_cx(camera.cx);
-    c->set_cy(camera.cy);
+    c->set_fx(camera.intrinsics.fx);
+    c->set_fy(camera.intrinsics.fy);
+    c->set_cx(camera.intrinsics.cx);
+    c->set_cy(camera.intrinsics.cy);
     for (double d : camera.distortion) c->add_distortion(d);
     c->set_model(camera.model);
     info->set_source_uri(pipeline_->source_uri());
@@ -360,7 +361,7 @@ class TransientServer::Service final : public v1::Transient::Service {
     }
     info->set_version(version_);
     info->set_state(ToProto(pipeline_->state()));
-    info->set_unambiguous_range_m(kSpeedOfLight / (2.0 * o.base_frequency_hz));
+    info->set_unambiguous_range_m(UnambiguousRange(o.base_frequency_hz));
     return grpc::Status::OK;
   }
 
@@ -598,8 +599,7 @@ class TransientServer::Service final : public v1::Transient::Service {
       if (std::isnan(phase)) continue;
       v1::Return* ret = out->add_returns();
       ret->set_time_of_flight_ns(PhaseToTimeOfFlightNs(phase, latest->base_frequency_hz));
-      ret->set_range_m(phase / (2.0 * std::numbers::pi) * kSpeedOfLight /
-                       (2.0 * latest->base_frequency_hz));
+      ret->set_range_m(PhaseToRange(phase, latest->base_frequency_hz));
       ret->set_weight(pisarenko.weight[k]);
     }
     out->set_uniform(pisarenko.uniform[0]);

@@ -15,6 +15,7 @@
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/status_matchers.h"
 #include "transient/reconstruct/moment_depth_map.h"
+#include "transient/reconstruct/physical_constants.h"
 #include "transient/service/grpc_status.h"
 #include "transient/service/image_encoding.h"
 #include "transient/v1/transient.grpc.pb.h"
@@ -29,7 +30,7 @@ using ::transient::testing::StatusIs;
 
 constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 constexpr ImageGeometry kSensor{32, 24};
-constexpr double kUnambiguousRangeM = 299792458.0 / (2.0 * 23e6);
+const double kUnambiguousRangeM = UnambiguousRange(23e6);
 
 // The first frame with images of a stream, or the status the stream ended with.
 absl::StatusOr<v1::Frame> FirstFrame(v1::Transient::Stub& stub, const v1::StreamRequest& request) {

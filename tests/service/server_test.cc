@@ -16,7 +16,7 @@
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
-#include "transient/drivers/capture_file.h"
+#include "transient/formats/capture_file.h"
 #include "transient/drivers/simulator.h"
 #include "transient/service/grpc_status.h"
 #include "transient/service/image_encoding.h"

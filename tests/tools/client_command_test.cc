@@ -36,7 +36,7 @@
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
 #include "tools/transient/image_writers.h"
-#include "transient/drivers/capture_file.h"
+#include "transient/formats/capture_file.h"
 #include "transient/drivers/capture_source.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"

@@ -12,10 +12,10 @@
 #include "absl/strings/str_cat.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
-#include "tests/tools/test_files.h"
+#include "tests/formats/test_files.h"
 #include "tools/transient/capture_commands.h"
 #include "tools/transient/reconstruct_command.h"
-#include "transient/drivers/capture_file.h"
+#include "transient/formats/capture_file.h"
 #include "transient/reconstruct/moments.h"
 
 namespace transient::tools {

@@ -22,10 +22,10 @@
 #include "tests/support/scratch_directory.h"
 #include "tests/support/video_probe.h"
 #include "tests/support/status_matchers.h"
-#include "tests/tools/view_test_files.h"
+#include "tests/formats/view_test_files.h"
 #include "tools/transient/capture_commands.h"
 #include "tools/transient/exit_status.h"
-#include "tools/transient/reconstruction_reader.h"
+#include "transient/formats/reconstruction_reader.h"
 #include "tools/transient/view_command.h"
 
 namespace transient::tools {
@@ -41,7 +41,7 @@ using ::transient::testing::StatusIs;
 // A box at Z = 2 m (columns 6..29, rows 5..34) in front of a wall at Z = 3 m, seen by a 64x40
 // camera; every depth in [1.5, 3.5] m.
 constexpr ImageGeometry kGeometry = {.width = 64, .height = 40};
-constexpr Intrinsics kIntrinsics = {.fx = 50.0, .fy = 50.0, .cx = 31.5, .cy = 19.5};
+constexpr PinholeIntrinsics kIntrinsics = {.fx = 50.0, .fy = 50.0, .cx = 31.5, .cy = 19.5};
 constexpr double kBoxZ = 2.0, kWallZ = 3.0;
 constexpr int kBoxX0 = 6, kBoxX1 = 30, kBoxY0 = 5, kBoxY1 = 35;  // half-open
 constexpr double kBlurPx = 1.5;                                  // Gaussian radius ceil(4.5) = 5 px
@@ -111,9 +111,9 @@ bool NearBoxEdge(float x) { return std::abs(x - 29.5f) <= 6.5f; }
 
 TEST(DepthFromRange, DividesRangeByTheLengthOfThePixelsRay) {
   const ImageGeometry geometry{.width = 3, .height = 2};
-  const Intrinsics intrinsics{.fx = 2.0, .fy = 4.0, .cx = 1.0, .cy = 0.0};
+  const PinholeIntrinsics intrinsics{.fx = 2.0, .fy = 4.0, .cx = 1.0, .cy = 0.0};
   const std::vector<float> range = {2.0f, 2.0f, 3.0f, NAN, 1.0f, 1.0f};
-  const std::vector<float> depth = DepthFromRange(geometry, range, intrinsics);
+  const std::vector<float> depth = DepthFromRange(geometry, intrinsics, range);
   ASSERT_EQ(depth.size(), range.size());
   constexpr float kFloat = 1e-6f;
   EXPECT_NEAR(depth[1], 2.0f, kFloat);                            // on the optical axis
@@ -345,8 +345,8 @@ TEST_F(MomentView, WritesEveryPictureOfEveryFrameAtItsFiguresSize) {
   ASSERT_THAT(reader->ReadFrame(1, reader->available(), &frame), IsOk());
   absl::StatusOr<MomentPictures> pictures = MomentPictures::Create(*summary->moment);
   ASSERT_THAT(pictures.status(), IsOk());
-  const Intrinsics intrinsics = summary->moment->intrinsics;
-  ASSERT_THAT(pictures->SetFrame(1, DepthFromRange(frame.geometry, frame.range_m, intrinsics),
+  const PinholeIntrinsics intrinsics = summary->moment->intrinsics;
+  ASSERT_THAT(pictures->SetFrame(1, DepthFromRange(frame.geometry, intrinsics, frame.range_m),
                                  frame.c0, summary->scales.amplitude),
               IsOk());
   const auto expect_size = [&](const std::string& name, const cv::Mat& figure) {

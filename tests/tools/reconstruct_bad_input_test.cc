@@ -16,7 +16,7 @@
 #include "absl/strings/match.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
-#include "tests/tools/test_files.h"
+#include "tests/formats/test_files.h"
 #include "tools/transient/exit_status.h"
 #include "tools/transient/reconstruct_command.h"
 

@@ -15,7 +15,7 @@
 
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
-#include "tests/tools/test_files.h"
+#include "tests/formats/test_files.h"
 #include "transient/reconstruct/moments.h"
 
 namespace transient::tools {

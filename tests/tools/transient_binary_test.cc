@@ -13,7 +13,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "tests/support/scratch_directory.h"
-#include "tests/tools/test_files.h"
+#include "tests/formats/test_files.h"
 
 namespace transient::tools {
 namespace {

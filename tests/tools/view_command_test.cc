@@ -16,11 +16,11 @@
 #include "tests/support/scratch_directory.h"
 #include "tests/support/video_probe.h"
 #include "tests/support/status_matchers.h"
-#include "tests/tools/test_files.h"
-#include "tests/tools/view_test_files.h"
+#include "tests/formats/test_files.h"
+#include "tests/formats/view_test_files.h"
 #include "tools/transient/exit_status.h"
 #include "tools/transient/pixel_plot.h"
-#include "tools/transient/reconstruction_reader.h"
+#include "transient/formats/reconstruction_reader.h"
 
 namespace transient::tools {
 namespace {
@@ -191,7 +191,7 @@ TEST(ViewCommand, PointCloudHasOnePointPerFiniteRangeAlongEachPixelsRay) {
         return dir.File("r.h5");
       }(),
       0);
-  const Intrinsics intrinsics{.fx = 10.0, .fy = 12.0, .cx = 5.5, .cy = 3.5};
+  const PinholeIntrinsics intrinsics{.fx = 10.0, .fy = 12.0, .cx = 5.5, .cy = 3.5};
   const PointCloud cloud = PointsFromRange(frame.geometry, frame.range_m, intrinsics,
                                            std::span<const float>(frame.c0), 200.0f);
   ASSERT_THAT(WritePly(dir.File("p.ply"), cloud, PlyFormat::kAscii, {"test"}), IsOk());

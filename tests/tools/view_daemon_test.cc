@@ -28,7 +28,7 @@
 #include "tools/transient/client_command.h"
 #include "tools/transient/daemon_frame_source.h"
 #include "tools/transient/view_command.h"
-#include "transient/drivers/capture_file.h"
+#include "transient/formats/capture_file.h"
 #include "transient/drivers/capture_source.h"
 #include "transient/v1/transient.grpc.pb.h"
 

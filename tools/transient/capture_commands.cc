@@ -14,14 +14,14 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
-#include "tools/transient/moment_file.h"
-#include "tools/transient/moment_file_writer.h"
-#include "tools/transient/temporary_output.h"
+#include "transient/formats/moment_file.h"
+#include "transient/formats/moment_file_writer.h"
+#include "transient/formats/temporary_output.h"
 #include "transient/drivers/calibration_capture.h"
-#include "transient/drivers/calibration_file.h"
-#include "transient/drivers/capture_file.h"
+#include "transient/formats/calibration_file.h"
+#include "transient/formats/capture_file.h"
 #include "transient/drivers/capture_source.h"
-#include "transient/drivers/h5.h"
+#include "transient/formats/h5.h"
 #include "transient/drivers/simulator.h"
 #include "transient/reconstruct/calibration.h"
 #include "transient/reconstruct/cycle_assembler.h"
@@ -389,7 +389,8 @@ namespace {
 std::string DescribeCamera(const CameraInfo& camera) {
   return absl::StrFormat(
       "camera: %dx%d px, fx %.2f fy %.2f cx %.2f cy %.2f px, %s, frame period %.3f ms",
-      camera.geometry.width, camera.geometry.height, camera.fx, camera.fy, camera.cx, camera.cy,
+      camera.geometry.width, camera.geometry.height, camera.intrinsics.fx, camera.intrinsics.fy,
+      camera.intrinsics.cx, camera.intrinsics.cy,
       camera.model.empty() ? "unnamed" : camera.model, camera.frame_period_s * 1e3);
 }
 

@@ -16,7 +16,7 @@
 #include "absl/strings/strip.h"
 #include "absl/time/clock.h"
 #include "tools/transient/client_command.h"
-#include "tools/transient/reconstruction_reader.h"
+#include "transient/formats/reconstruction_reader.h"
 #include "transient/service/grpc_status.h"
 #include "transient/service/products.h"
 #include "transient/v1/transient.grpc.pb.h"
@@ -228,7 +228,7 @@ absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
   source->base_frequency_hz_ = f;
   source->order_ = static_cast<int>(info->schedule().order());
   if (config.has_threshold()) source->threshold_ = config.threshold();
-  const Intrinsics intrinsics{
+  const PinholeIntrinsics intrinsics{
       .fx = camera.fx(), .fy = camera.fy(), .cx = camera.cx(), .cy = camera.cy()};
   if (intrinsics.Validate().ok()) source->intrinsics_ = intrinsics;
 

@@ -15,7 +15,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "tools/transient/point_cloud.h"
-#include "tools/transient/transient_frame.h"
+#include "transient/formats/transient_frame.h"
 
 namespace transient::tools {
 
@@ -67,7 +67,7 @@ class DaemonFrameSource : public TransientFrameSource {
 
   const std::vector<double>& phases() const { return phases_; }
   // The camera's pinhole intrinsics from GetInfo; none when the daemon sent invalid ones.
-  const std::optional<Intrinsics>& intrinsics() const { return intrinsics_; }
+  const std::optional<PinholeIntrinsics>& intrinsics() const { return intrinsics_; }
   const std::string& source_uri() const { return source_uri_; }
   // Frame.sequence of each frame received, in order.
   const std::vector<uint64_t>& sequences() const { return sequences_; }
@@ -85,7 +85,7 @@ class DaemonFrameSource : public TransientFrameSource {
   double threshold_ = 0.1;
   std::vector<double> phases_;
   ProductSet available_;
-  std::optional<Intrinsics> intrinsics_;
+  std::optional<PinholeIntrinsics> intrinsics_;
   std::vector<TransientFrame> frames_;
   std::vector<uint64_t> sequences_;
   std::vector<std::string> notes_;

@@ -42,15 +42,6 @@ constexpr Rgb8 kBackgroundSwatch = {150, 150, 150};
 // bias of eq. 4.4's adapted b* (kQuantized16MomentBias).
 constexpr MomentMapFormat kFormat = MomentMapFormat::kOptimized64;
 
-struct Vec3 {
-  double x = 0.0, y = 0.0, z = 0.0;
-  Vec3 operator+(const Vec3& o) const { return {x + o.x, y + o.y, z + o.z}; }
-  Vec3 operator-(const Vec3& o) const { return {x - o.x, y - o.y, z - o.z}; }
-  Vec3 operator*(double s) const { return {x * s, y * s, z * s}; }
-  double dot(const Vec3& o) const { return x * o.x + y * o.y + z * o.z; }
-  double norm() const { return std::sqrt(dot(*this)); }
-};
-
 // The rectangle of a VirtualPlane in the optical frame: corners a + s (b - a) + t (0, 1, 0),
 // s in [0, 1], |t| <= half_height.
 struct PlaneGeometry {
@@ -60,7 +51,7 @@ struct PlaneGeometry {
 };
 
 PlaneGeometry GeometryOf(const VirtualPlane& plane, const MomentSetup& setup) {
-  const Intrinsics& k = setup.intrinsics;
+  const PinholeIntrinsics& k = setup.intrinsics;
   const double mean_depth = 0.5 * (plane.left_depth_m + plane.right_depth_m);
   const double middle_row = 0.5 * (setup.geometry.height - 1);
   const double y = (middle_row - k.cy) / k.fy * mean_depth;
@@ -112,7 +103,7 @@ template <typename Hit>
 Fragments CastFromCamera(const MomentSetup& setup, Hit hit) {
   Fragments f = EmptyFragments(setup);
   f.colour.assign(f.depth_m.size(), Rgb8{});
-  const Intrinsics& k = setup.intrinsics;
+  const PinholeIntrinsics& k = setup.intrinsics;
   const int width = f.geometry.width;
   for (int v = 0; v < f.geometry.height; ++v) {
     for (int u = 0; u < width; ++u) {
@@ -148,20 +139,6 @@ float Bilinear(std::span<const float> plane, ImageGeometry g, float x, float y) 
 }
 
 }  // namespace
-
-std::vector<float> DepthFromRange(ImageGeometry geometry, std::span<const float> range_m,
-                                  const Intrinsics& intrinsics) {
-  assert(static_cast<int64_t>(range_m.size()) == geometry.pixel_count());
-  std::vector<float> depth(range_m.size(), kNaN);
-  for (int y = 0; y < geometry.height; ++y) {
-    for (int x = 0; x < geometry.width; ++x) {
-      const size_t p = static_cast<size_t>(y) * geometry.width + x;
-      if (!std::isfinite(range_m[p])) continue;
-      depth[p] = static_cast<float>(range_m[p] * PixelRay(intrinsics, x, y)[2]);
-    }
-  }
-  return depth;
-}
 
 absl::Status MomentPictureOptions::Validate() const {
   if (!enabled) {
@@ -249,7 +226,7 @@ absl::Status CheckMomentOptionsForImage(const MomentPictureOptions& options,
 }
 
 absl::StatusOr<MomentSetup> ResolveMomentSetup(const MomentPictureOptions& options,
-                                               ImageGeometry geometry, const Intrinsics& intrinsics,
+                                               ImageGeometry geometry, const PinholeIntrinsics& intrinsics,
                                                const DepthPercentiles& percentiles) {
   MomentSetup setup;
   setup.geometry = geometry;
@@ -394,7 +371,7 @@ Fragments RenderPlane(const MomentSetup& setup) {
 }
 
 Fragments RenderSphere(const MomentSetup& setup) {
-  const Intrinsics& k = setup.intrinsics;
+  const PinholeIntrinsics& k = setup.intrinsics;
   const double z = setup.sphere.depth_m, r = setup.sphere.radius_m;
   const Vec3 centre{(setup.sphere.column - k.cx) / k.fx * z, (setup.sphere.row - k.cy) / k.fy * z,
                     z};
@@ -416,7 +393,7 @@ Fragments RenderSphere(const MomentSetup& setup) {
 Fragments RenderBackdrop(const MomentSetup& setup) {
   Fragments f = EmptyFragments(setup);
   const PlaneGeometry g = GeometryOf(setup.backdrop, setup);
-  const Intrinsics& k = setup.intrinsics;
+  const PinholeIntrinsics& k = setup.intrinsics;
   // The viewer at (offset, 0, 0) looks at the backdrop's centre, turned about the y axis only.
   const Vec3 viewer{setup.viewpoint_offset_m, 0.0, 0.0};
   const Vec3 centre = (g.a + g.b) * 0.5;

@@ -33,12 +33,6 @@ inline constexpr double kCompareBlurPx = 2.0;
 inline constexpr int kMaxUpscale = 8;
 inline constexpr int kMaxBlurs = 8;
 
-// Optical depth Z (metres, DESIGN.md) of every pixel from its range along the pixel's ray:
-// Z = range / |((x - cx)/fx, (y - cy)/fy, 1)| (service/products.cc DepthFromRange does the
-// same). NaN and infinite ranges stay NaN (REP 118's invalid).
-std::vector<float> DepthFromRange(ImageGeometry geometry, std::span<const float> range_m,
-                                  const Intrinsics& intrinsics);
-
 // `transient view` options of the moment-depth pictures. Empty vectors and nullopt mean the
 // defaults derived from the depth of the frames drawn (ResolveMomentSetup).
 struct MomentPictureOptions {
@@ -98,7 +92,7 @@ struct VirtualSphere {
 // the options and the depth percentiles.
 struct MomentSetup {
   ImageGeometry geometry = {};
-  Intrinsics intrinsics = {};
+  PinholeIntrinsics intrinsics = {};
   DepthNormalisation normalisation = {};
   bool range_given = false;      // --near and --far both given
   bool placement_given = false;  // every placement option given
@@ -134,7 +128,7 @@ struct MomentSetup {
 // is hidden by every surface, Hausdorff's bound is 1): the plane's or backdrop's farther edge,
 // or the sphere's centre (the depth of its rim).
 absl::StatusOr<MomentSetup> ResolveMomentSetup(const MomentPictureOptions& options,
-                                               ImageGeometry geometry, const Intrinsics& intrinsics,
+                                               ImageGeometry geometry, const PinholeIntrinsics& intrinsics,
                                                const DepthPercentiles& percentiles);
 
 // One line for the summary: "depth 1.6..3.4 m (default), plane Z 2.4..3.3 m, ...".

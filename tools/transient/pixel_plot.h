@@ -6,7 +6,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "tools/transient/transient_frame.h"
+#include "transient/formats/transient_frame.h"
 
 namespace transient::tools {
 

@@ -9,35 +9,12 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "tools/transient/temporary_output.h"
+#include "transient/formats/temporary_output.h"
 
 namespace transient::tools {
 
-absl::Status Intrinsics::Validate() const {
-  for (auto [name, value] : {std::pair{"fx", fx}, std::pair{"fy", fy}}) {
-    if (!(std::isfinite(value) && value > 0.0)) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("intrinsics: ", name, " = ", value, ": expected a finite value > 0 (px)"));
-    }
-  }
-  for (auto [name, value] : {std::pair{"cx", cx}, std::pair{"cy", cy}}) {
-    if (!std::isfinite(value)) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("intrinsics: ", name, " = ", value, ": expected a finite value (px)"));
-    }
-  }
-  return absl::OkStatus();
-}
-
-std::array<double, 3> PixelRay(const Intrinsics& intrinsics, int x, int y) {
-  const double u = (x - intrinsics.cx) / intrinsics.fx;
-  const double v = (y - intrinsics.cy) / intrinsics.fy;
-  const double norm = std::sqrt(u * u + v * v + 1.0);
-  return {u / norm, v / norm, 1.0 / norm};
-}
-
 PointCloud PointsFromRange(ImageGeometry geometry, std::span<const float> range_m,
-                           const Intrinsics& intrinsics,
+                           const PinholeIntrinsics& intrinsics,
                            std::optional<std::span<const float>> amplitude,
                            float amplitude_scale) {
   PointCloud cloud;
@@ -46,10 +23,9 @@ PointCloud PointsFromRange(ImageGeometry geometry, std::span<const float> range_
       const int64_t p = int64_t{y} * geometry.width + x;
       const float range = range_m[p];
       if (!std::isfinite(range)) continue;
-      const std::array<double, 3> ray = PixelRay(intrinsics, x, y);
-      cloud.points.push_back({static_cast<float>(range * ray[0]),
-                              static_cast<float>(range * ray[1]),
-                              static_cast<float>(range * ray[2])});
+      const Vec3 ray = PixelRay(intrinsics, x, y);
+      cloud.points.push_back({static_cast<float>(range * ray.x), static_cast<float>(range * ray.y),
+                              static_cast<float>(range * ray.z)});
       cloud.pixels.push_back(p);
       if (amplitude.has_value()) cloud.colours.push_back(ColourMap((*amplitude)[p], amplitude_scale));
     }

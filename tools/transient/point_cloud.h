@@ -12,23 +12,10 @@
 
 #include "absl/status/status.h"
 #include "tools/transient/image_writers.h"
+#include "transient/reconstruct/camera_model.h"
 #include "transient/reconstruct/image.h"
 
 namespace transient::tools {
-
-// Pinhole intrinsics in pixels (a capture file's /camera attributes fx, fy, cx, cy); lens
-// distortion is not removed.
-struct Intrinsics {
-  double fx = 0.0, fy = 0.0;
-  double cx = 0.0, cy = 0.0;
-
-  // fx, fy finite and > 0; cx, cy finite.
-  absl::Status Validate() const;
-};
-
-// The unit vector along the ray of pixel (x, y) in the optical frame (x right, y down, z
-// forward, DESIGN.md): normalize(((x - cx)/fx, (y - cy)/fy, 1)).
-std::array<double, 3> PixelRay(const Intrinsics& intrinsics, int x, int y);
 
 struct PointCloud {
   std::vector<std::array<float, 3>> points;  // metres, optical frame of the camera
@@ -36,11 +23,11 @@ struct PointCloud {
   std::vector<int64_t> pixels;               // the pixel (y * width + x) of each point
 };
 
-// One point range * PixelRay(x, y) per pixel with a finite range (range is the radial distance
+// One point range * PixelRay(intrinsics, x, y) per pixel with a finite range (range is the radial distance
 // along the ray, README "Units"); NaN and infinite ranges are skipped. With `amplitude` (one
 // value per pixel) each point is coloured ColourMap(amplitude, amplitude_scale).
 PointCloud PointsFromRange(ImageGeometry geometry, std::span<const float> range_m,
-                           const Intrinsics& intrinsics,
+                           const PinholeIntrinsics& intrinsics,
                            std::optional<std::span<const float>> amplitude = std::nullopt,
                            float amplitude_scale = 1.0f);
 

@@ -16,9 +16,9 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_replace.h"
-#include "tools/transient/moment_file.h"
-#include "tools/transient/reconstruction_file.h"
-#include "tools/transient/temporary_output.h"
+#include "transient/formats/moment_file.h"
+#include "transient/formats/reconstruction_file.h"
+#include "transient/formats/temporary_output.h"
 
 namespace transient::tools {
 namespace {

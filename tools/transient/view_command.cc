@@ -22,14 +22,14 @@
 #include "absl/strings/str_split.h"
 #include "tools/transient/daemon_frame_source.h"
 #include "tools/transient/figure.h"
-#include "tools/transient/moment_file.h"
+#include "transient/formats/moment_file.h"
 #include "tools/transient/pixel_plot.h"
 #include "tools/transient/reconstruct_command.h"
-#include "tools/transient/reconstruction_reader.h"
+#include "transient/formats/reconstruction_reader.h"
 #include "tools/transient/video_file.h"
-#include "transient/drivers/capture_file.h"
-#include "transient/drivers/format_tag.h"
-#include "transient/drivers/h5.h"
+#include "transient/formats/capture_file.h"
+#include "transient/formats/format_tag.h"
+#include "transient/formats/h5.h"
 
 namespace transient::tools {
 namespace {
@@ -95,7 +95,7 @@ struct Plan {
   std::vector<int> streak_rows;
   std::vector<PixelPosition> pixels;
   std::vector<int> bins;  // bins drawn by slices, cumulative and video
-  std::optional<Intrinsics> intrinsics;
+  std::optional<PinholeIntrinsics> intrinsics;
   ProductSet wanted;  // planes read per frame
 };
 
@@ -126,14 +126,14 @@ int NearestBin(const TransientFrameSource& source, const std::vector<double>& ph
   return best;
 }
 
-absl::StatusOr<Intrinsics> IntrinsicsOf(const CaptureReader& capture, ImageGeometry expected) {
+absl::StatusOr<PinholeIntrinsics> IntrinsicsOf(const CaptureReader& capture, ImageGeometry expected) {
   const CameraInfo& camera = capture.camera();
   if (camera.geometry != expected) {
     return absl::InvalidArgumentError(absl::StrCat(
         capture.path(), ": /camera: ", camera.geometry.width, "x", camera.geometry.height,
         " px, expected the reconstruction's ", expected.width, "x", expected.height, " px"));
   }
-  const Intrinsics intrinsics{.fx = camera.fx, .fy = camera.fy, .cx = camera.cx, .cy = camera.cy};
+  const PinholeIntrinsics& intrinsics = camera.intrinsics;
   if (absl::Status status = intrinsics.Validate(); !status.ok()) {
     return InFile(absl::StrCat(capture.path(), ": /camera"), status);
   }
@@ -143,7 +143,7 @@ absl::StatusOr<Intrinsics> IntrinsicsOf(const CaptureReader& capture, ImageGeome
 // Checks what `args` asks for against `source` and resolves it into a plan.
 absl::StatusOr<Plan> MakePlan(const ViewArgs& args, const TransientFrameSource& source,
                               const std::vector<double>& phases,
-                              std::optional<Intrinsics> input_intrinsics) {
+                              std::optional<PinholeIntrinsics> input_intrinsics) {
   const ProductSet available = source.available();
   const auto has = [&](Product product) { return available[static_cast<int>(product)]; };
   const bool all = NothingChosen(args);
@@ -216,7 +216,7 @@ absl::StatusOr<Plan> MakePlan(const ViewArgs& args, const TransientFrameSource& 
   if (!args.camera_path.empty()) {
     absl::StatusOr<CaptureReader> camera = CaptureReader::Open(args.camera_path);
     if (!camera.ok()) return camera.status();
-    absl::StatusOr<Intrinsics> intrinsics = IntrinsicsOf(*camera, geometry);
+    absl::StatusOr<PinholeIntrinsics> intrinsics = IntrinsicsOf(*camera, geometry);
     if (!intrinsics.ok()) return intrinsics.status();
     plan.intrinsics = *intrinsics;
   } else {
@@ -322,7 +322,7 @@ absl::StatusOr<ViewScales> ChooseScales(const ViewArgs& args, const TransientFra
     if (amplitude) amplitude_samples.Add(frame.c0);
     if (range) range_samples.Add(frame.range_m);
     if (optical_depth) {
-      depth_samples.Add(DepthFromRange(frame.geometry, frame.range_m, *plan.intrinsics));
+      depth_samples.Add(DepthFromRange(frame.geometry, *plan.intrinsics, frame.range_m));
     }
     if (direct_indirect) {
       direct_indirect_samples.Add(frame.pisarenko_direct);
@@ -482,7 +482,7 @@ absl::Status DrawFrames(const ViewArgs& args, const TransientFrameSource& source
           frame.geometry, frame.range_m, *plan.intrinsics,
           args.ply_colour ? std::optional<std::span<const float>>(frame.c0) : std::nullopt,
           static_cast<float>(scales.amplitude));
-      const Intrinsics& in = *plan.intrinsics;
+      const PinholeIntrinsics& in = *plan.intrinsics;
       const std::vector<std::string> comments = {
           absl::StrCat("transient view: frame ", frame.index, " of ", source.name()),
           "points = range * normalize(((x - cx)/fx, (y - cy)/fy, 1)), metres, optical frame "
@@ -508,7 +508,7 @@ absl::Status DrawFrames(const ViewArgs& args, const TransientFrameSource& source
     }
     if (moment != nullptr) {
       const std::vector<float> depth =
-          DepthFromRange(frame.geometry, frame.range_m, *plan.intrinsics);
+          DepthFromRange(frame.geometry, *plan.intrinsics, frame.range_m);
       const std::vector<float> no_c0(depth.size(), std::numeric_limits<float>::quiet_NaN());
       if (absl::Status status = moment->SetFrame(frame.index, depth,
                                                  frame.c0.empty() ? no_c0 : frame.c0,
@@ -545,7 +545,7 @@ absl::Status DrawFrames(const ViewArgs& args, const TransientFrameSource& source
 
 // Everything after the input is open: the plan, the scales, the pictures.
 absl::Status Draw(const ViewArgs& args, const TransientFrameSource& source,
-                  const std::vector<double>& phases, std::optional<Intrinsics> input_intrinsics,
+                  const std::vector<double>& phases, std::optional<PinholeIntrinsics> input_intrinsics,
                   int64_t index_offset, const CommandHooks& hooks, ViewSummary& summary) {
   absl::StatusOr<Plan> plan = MakePlan(args, source, phases, input_intrinsics);
   if (!plan.ok()) return plan.status();
@@ -638,7 +638,7 @@ absl::StatusOr<ViewSummary> View(const ViewArgs& args, const CommandHooks& hooks
   // A moment or capture file is reconstructed into a temporary reconstruction file first.
   std::unique_ptr<TemporaryDirectory> temporary;
   std::string reconstruction_path = args.input_path;
-  std::optional<Intrinsics> input_intrinsics;
+  std::optional<PinholeIntrinsics> input_intrinsics;
   bool frames_selected = false;  // the reconstruction holds only the frames asked for
   if (is(kReconstructionFormatName, kReconstructionFormatMajor)) {
     summary.input_kind = "reconstruction";
@@ -657,7 +657,7 @@ absl::StatusOr<ViewSummary> View(const ViewArgs& args, const CommandHooks& hooks
             args.input_path, ": a capture without an embedded calibration: give --calibration "
                              "FILE (transient calibrate)"));
       }
-      absl::StatusOr<Intrinsics> intrinsics = IntrinsicsOf(*capture, capture->camera().geometry);
+      absl::StatusOr<PinholeIntrinsics> intrinsics = IntrinsicsOf(*capture, capture->camera().geometry);
       if (intrinsics.ok()) input_intrinsics = *intrinsics;
       moments_path = temporary->File("moments.h5");
       MomentsArgs moments{.capture_path = args.input_path,

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "tools/transient/figure.h"
-#include "tools/transient/transient_frame.h"
+#include "transient/formats/transient_frame.h"
 
 namespace transient::tools {
 

@@ -6,23 +6,17 @@
 #include <cmath>
 
 #include "transient/drivers/capture_source.h"
+#include "transient/reconstruct/camera_model.h"
 #include "transient/reconstruct/moments.h"
+#include "transient/reconstruct/vec3.h"
 
 namespace transient::sim {
 
-struct Vec3 {
-  double x = 0.0, y = 0.0, z = 0.0;
-  Vec3 operator+(const Vec3& o) const { return {x + o.x, y + o.y, z + o.z}; }
-  Vec3 operator-(const Vec3& o) const { return {x - o.x, y - o.y, z - o.z}; }
-  Vec3 operator*(double s) const { return {x * s, y * s, z * s}; }
-  double dot(const Vec3& o) const { return x * o.x + y * o.y + z * o.z; }
-  double norm() const { return std::sqrt(dot(*this)); }
-  Vec3 normalized() const { return *this * (1.0 / norm()); }
-};
+using ::transient::Vec3;
 
 // Unit direction of the ray through the centre of pixel (column u, row v), pinhole model.
 inline Vec3 PixelRay(const CameraInfo& camera, int u, int v) {
-  return Vec3{(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0}.normalized();
+  return ::transient::PixelRay(camera.intrinsics, u, v);
 }
 
 // Distance along `direction` from `origin` to the plane {x : n.x = offset}; +inf when the ray

@@ -27,9 +27,10 @@ constexpr double kJumpLow[2] = {0.6, 0.9}, kJumpHigh[2] = {1.1, 1.4};
 CameraInfo MakeCamera(const SimulatorOptions& options) {
   CameraInfo camera;
   camera.geometry = {options.width, options.height};
-  camera.fx = camera.fy = 0.5 * options.width / std::tan(0.5 * kHorizontalFovRad);
-  camera.cx = 0.5 * (options.width - 1);
-  camera.cy = 0.5 * (options.height - 1);
+  camera.intrinsics.fx = camera.intrinsics.fy =
+      0.5 * options.width / std::tan(0.5 * kHorizontalFovRad);
+  camera.intrinsics.cx = 0.5 * (options.width - 1);
+  camera.intrinsics.cy = 0.5 * (options.height - 1);
   camera.model = absl::StrCat("transient simulator (pmd PhotonICs 19k-S3 like, ",
                               WaveformName(options.waveform), " modulation)");
   camera.frame_period_s = options.frame_period_s();

@@ -112,10 +112,10 @@ TEST(SimulatorSource, CameraHasPlausibleIntrinsicsAndCapabilities) {
   auto source = OpenOrDie("sim:mirrors?pace=fast");
   const CameraInfo& camera = source->camera();
   EXPECT_EQ(camera.geometry, (ImageGeometry{163, 120}));
-  EXPECT_GT(camera.fx, 100.0);
-  EXPECT_EQ(camera.fx, camera.fy);
-  EXPECT_DOUBLE_EQ(camera.cx, 81.0);
-  EXPECT_DOUBLE_EQ(camera.cy, 59.5);
+  EXPECT_GT(camera.intrinsics.fx, 100.0);
+  EXPECT_EQ(camera.intrinsics.fx, camera.intrinsics.fy);
+  EXPECT_DOUBLE_EQ(camera.intrinsics.cx, 81.0);
+  EXPECT_DOUBLE_EQ(camera.intrinsics.cy, 59.5);
   EXPECT_THAT(camera.distortion, ::testing::Each(0.0));
   EXPECT_THAT(camera.model, HasSubstr("simulator"));
   const SourceCapabilities caps = source->capabilities();

@@ -13,21 +13,11 @@
 #include "absl/strings/string_view.h"
 #include "absl/time/time.h"
 #include "transient/reconstruct/acquisition.h"
+#include "transient/reconstruct/camera_model.h"
+#include "transient/reconstruct/ground_truth.h"
 #include "transient/reconstruct/image.h"
 
 namespace transient {
-
-// Pinhole intrinsics and lens distortion of the sensor, in the conventions of ROS CameraInfo
-// (plumb_bob). Pixel (0, 0) is the centre of the top-left pixel; the optical frame has x right,
-// y down and z forward.
-struct CameraInfo {
-  ImageGeometry geometry;
-  double fx = 0.0, fy = 0.0;  // focal lengths, pixels
-  double cx = 0.0, cy = 0.0;  // principal point, pixels
-  std::array<double, 5> distortion{};  // k1, k2, p1, p2, k3
-  std::string model;                   // e.g. "transient simulator (pmd PhotonICs 19k-S3 like)"
-  double frame_period_s = 0.0;         // time between the starts of two raw frames; 0 = unknown
-};
 
 // What the source can be asked to produce.
 struct SourceCapabilities {
@@ -37,21 +27,6 @@ struct SourceCapabilities {
   bool unmodulated_exposures = false;  // the zeroth-moment pair
   double min_exposure_s = 0.0, max_exposure_s = 0.0;
   bool replay = false;  // a recording: finite, ends with OutOfRange
-};
-
-// What a simulated scene really contains, per pixel: the returns of its impulse response and
-// the moments they have. Returns of one pixel are sorted by delay; unused entries hold NaN.
-struct GroundTruth {
-  ImageGeometry geometry;
-  int max_returns = 0;                  // R
-  std::vector<float> first_range_m;     // [H*W] range c*tau/2 of the earliest return; NaN if none
-  std::vector<float> return_range_m;    // [R, H, W] range of each return's onset (its mode for
-                                        // a continuous return), metres
-  std::vector<float> return_amplitude;  // [R, H, W] total light of each return (sensor units)
-  std::vector<float> return_spread_m;   // [R, H, W] 0 for a Dirac return, else the range
-                                        // extent holding most of a continuous return
-  MomentImage moments;                  // true c_0..c_m at the schedule's f, in the units a
-                                        // calibrated capture reproduces
 };
 
 // A source of raw frames. Use from one thread: Open, Start, Next... , Stop. Sources run the

@@ -18,7 +18,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "absl/time/time.h"
-#include "transient/drivers/capture_file.h"
+#include "transient/formats/capture_file.h"
 #include "transient/drivers/capture_source.h"
 
 namespace transient {

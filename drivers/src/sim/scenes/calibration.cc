@@ -25,7 +25,8 @@ class CalibrationScene : public Scene {
     const double half_w = 0.5 * g.width, half_h = 0.5 * g.height;
     for (int v = 0; v < g.height; ++v) {
       for (int u = 0; u < g.width; ++u) {
-        const double dx = (u - camera_.cx) / half_w, dy = (v - camera_.cy) / half_h;
+        const double dx = (u - camera_.intrinsics.cx) / half_w,
+                     dy = (v - camera_.intrinsics.cy) / half_h;
         const double r2 = 0.5 * (dx * dx + dy * dy);  // 1 in the corners
         const int64_t i = out->index(0, int64_t{v} * g.width + u);
         out->tau_s[i] = 0.0f;

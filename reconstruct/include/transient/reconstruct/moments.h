@@ -7,6 +7,8 @@
 #include <numbers>
 #include <span>
 
+#include "transient/reconstruct/physical_constants.h"
+
 namespace transient {
 
 using Complex = std::complex<double>;
@@ -14,9 +16,6 @@ using Complex = std::complex<double>;
 // The largest number of complex moments c_1..c_m that the core accepts (1 <= m <= kMaxOrder).
 inline constexpr int kMaxOrder = 16;
 inline constexpr int kMaxMoments = kMaxOrder + 1;
-
-inline constexpr double kSpeedOfLight = 299'792'458.0;  // m/s
-inline constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // A Hermitian Toeplitz matrix of at most kMaxMoments rows, kept on the stack.
 using ToeplitzMatrix =
@@ -34,10 +33,10 @@ void DiracMoments(std::span<const double> phases, std::span<const double> weight
 
 // Phase phi = 2*pi*f*tau of a round trip; range = c*tau/2 = c*phi/(4*pi*f) (thesis §8.4.3).
 inline double PhaseToRange(double phase, double base_frequency_hz) {
-  return kSpeedOfLight * phase / (2.0 * kTwoPi * base_frequency_hz);
+  return TimeOfFlightToRange(PhaseToTimeOfFlight(phase, base_frequency_hz));
 }
 inline double RangeToPhase(double range_m, double base_frequency_hz) {
-  return range_m * 2.0 * kTwoPi * base_frequency_hz / kSpeedOfLight;
+  return TimeOfFlightToPhase(2.0 * range_m / kSpeedOfLight, base_frequency_hz);
 }
 
 // Wraps a phase into [0, 2*pi).

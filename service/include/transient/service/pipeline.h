@@ -22,7 +22,7 @@
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
-#include "transient/drivers/capture_file.h"
+#include "transient/formats/capture_file.h"
 #include "transient/drivers/capture_source.h"
 #include "transient/reconstruct/calibration.h"
 #include "transient/reconstruct/reconstructor.h"
