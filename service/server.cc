@@ -15,12 +15,20 @@
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/moments.h"
 #include "transient/reconstruct/physical_constants.h"
-#include "transient/service/grpc_status.h"
-#include "transient/service/image_encoding.h"
+#include "transient/wire/grpc_status.h"
+#include "transient/wire/image_codec.h"
 #include "transient/v1/transient.grpc.pb.h"
 
 namespace transient::service {
 namespace {
+
+using ::transient::wire::ToGrpcStatus;
+using ::transient::wire::EncodeFloatPlane;
+using ::transient::wire::PixelRect;
+using ::transient::wire::ResolveRoi;
+using ::transient::wire::CheckEncoding;
+using ::transient::wire::EncodeBytePlane;
+using ::transient::wire::EncodeMomentDepth;
 
 constexpr int kDefaultSlices = 64;
 constexpr int kDefaultQueueFrames = 4;

@@ -16,12 +16,16 @@
 #include "tests/support/status_matchers.h"
 #include "transient/reconstruct/moment_depth_map.h"
 #include "transient/reconstruct/physical_constants.h"
-#include "transient/service/grpc_status.h"
-#include "transient/service/image_encoding.h"
+#include "transient/wire/grpc_status.h"
+#include "transient/wire/image_codec.h"
 #include "transient/v1/transient.grpc.pb.h"
 
 namespace transient::service {
 namespace {
+
+using ::transient::wire::FromGrpcStatus;
+using ::transient::wire::DecodeImage;
+using ::transient::wire::DecodeMomentDepth;
 
 using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;

@@ -18,14 +18,17 @@
 #include "tests/support/status_matchers.h"
 #include "transient/formats/capture_file.h"
 #include "transient/drivers/simulator.h"
-#include "transient/service/grpc_status.h"
-#include "transient/service/image_encoding.h"
+#include "transient/wire/grpc_status.h"
+#include "transient/wire/image_codec.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
 #include "transient/v1/transient.grpc.pb.h"
 
 namespace transient::service {
 namespace {
+
+using ::transient::wire::FromGrpcStatus;
+using ::transient::wire::DecodeImage;
 
 using ::testing::Each;
 using ::testing::Gt;

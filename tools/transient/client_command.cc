@@ -27,8 +27,8 @@
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "tools/transient/image_writers.h"
-#include "transient/service/grpc_status.h"
-#include "transient/service/image_encoding.h"
+#include "transient/wire/grpc_status.h"
+#include "transient/wire/image_codec.h"
 #include "transient/v1/transient.grpc.pb.h"
 #include "transient/v1/transient.pb.h"
 
@@ -404,7 +404,7 @@ absl::StatusOr<v1::Info> GetTransientdInfo(v1::Transient::Stub& stub,
   context.set_deadline(absl::ToChronoTime(absl::Now() + kInfoTimeout));
   if (grpc::Status status = stub.GetInfo(&context, v1::GetInfoRequest(), &info); !status.ok()) {
     return Prefixed(absl::StrCat("GetInfo from transientd at ", address, ": "),
-                    service::FromGrpcStatus(status));
+                    wire::FromGrpcStatus(status));
   }
   return info;
 }
@@ -419,7 +419,7 @@ absl::StatusOr<std::vector<DecodedImage>> DecodeFrame(const v1::Frame& frame) {
                                               frame.sequence(), " is ", image.width(), "x",
                                               image.height(), " px"));
     }
-    absl::StatusOr<std::vector<float>> values = service::DecodeImage(image);
+    absl::StatusOr<std::vector<float>> values = wire::DecodeImage(image);
     if (!values.ok()) return values.status();
     const ImageGeometry geometry{static_cast<int>(image.width()),
                                  static_cast<int>(image.height())};
@@ -433,7 +433,7 @@ absl::StatusOr<std::vector<DecodedImage>> DecodeFrame(const v1::Frame& frame) {
     }
     std::optional<MomentDepthMap> moment_depth;
     if (image.product() == v1::MOMENT_DEPTH) {
-      absl::StatusOr<MomentDepthMap> map = service::DecodeMomentDepth(image);
+      absl::StatusOr<MomentDepthMap> map = wire::DecodeMomentDepth(image);
       if (!map.ok()) {
         return absl::DataLossError(
             absl::StrCat("frame ", frame.sequence(), ": ", map.status().message()));
@@ -553,7 +553,7 @@ absl::Status ClientArgs::Validate() const {
         absl::StrCat("--encoding '", encoding, "': expected float32, float16 or mm"));
   }
   for (const v1::Product product : RequestedProducts(products)) {
-    if (absl::Status status = service::CheckEncoding(product, *wire_encoding); !status.ok()) {
+    if (absl::Status status = wire::CheckEncoding(product, *wire_encoding); !status.ok()) {
       return absl::InvalidArgumentError(
           absl::StrCat("--encoding ", encoding, " does not fit --products ", ProductStem(product),
                        " (mm is for range and depth only): ", status.message()));
@@ -736,7 +736,7 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   }
   absl::Status stream_error;
   if (!stream_status.ok() && !(stopped_here && stream_status.error_code() == grpc::CANCELLED)) {
-    stream_error = service::FromGrpcStatus(stream_status);
+    stream_error = wire::FromGrpcStatus(stream_status);
     summary.stream_error = std::string(stream_error.message());
   }
 

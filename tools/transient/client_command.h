@@ -178,7 +178,7 @@ struct DecodedImage {
   bool moment_depth_from_returns = false;
 };
 
-// Every image of `frame` decoded (service::DecodeImage, and service::DecodeMomentDepth for
+// Every image of `frame` decoded (wire::DecodeImage, and wire::DecodeMomentDepth for
 // MOMENT_DEPTH). DataLoss naming the image and the frame when one is empty, larger than
 // kMaxImageSide, or does not decode to width x height pixels.
 [[nodiscard]] absl::StatusOr<std::vector<DecodedImage>> DecodeFrame(const v1::Frame& frame);

@@ -17,7 +17,7 @@
 #include "absl/time/clock.h"
 #include "tools/transient/client_command.h"
 #include "transient/formats/reconstruction_reader.h"
-#include "transient/service/grpc_status.h"
+#include "transient/wire/grpc_status.h"
 #include "transient/service/products.h"
 #include "transient/v1/transient.grpc.pb.h"
 #include "transient/v1/transient.pb.h"
@@ -209,7 +209,7 @@ absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
     if (grpc::Status status = (*stub)->GetConfig(&context, v1::GetConfigRequest(), &config);
         !status.ok()) {
       return Prefixed(absl::StrCat("GetConfig from transientd at ", address, ": "),
-                      service::FromGrpcStatus(status));
+                      wire::FromGrpcStatus(status));
     }
   }
 
@@ -322,7 +322,7 @@ absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
   const bool ended_early = source->frames() < options.frames;
   if (ended_early) {
     const absl::Status ended = stream_status.ok() ? absl::OutOfRangeError("the stream ended")
-                                                  : service::FromGrpcStatus(stream_status);
+                                                  : wire::FromGrpcStatus(stream_status);
     // A replay that reached its end (OutOfRange) still leaves the frames it sent; anything
     // else, or nothing received, is an error.
     if (source->frames_.empty() || ended.code() != absl::StatusCode::kOutOfRange) {

@@ -1,6 +1,6 @@
 // Tests of grpc_status.h: every code maps to the gRPC code of the same meaning, messages are
 // kept, and the inverse undoes the mapping.
-#include "transient/service/grpc_status.h"
+#include "transient/wire/grpc_status.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-namespace transient::service {
+namespace transient::wire {
 namespace {
 
 // Spelled out pairwise, so the test does not rest on the numbering the implementation may use.
@@ -72,4 +72,4 @@ TEST(FromGrpcStatus, UnknownGrpcCodeIsUnknown) {
 }
 
 }  // namespace
-}  // namespace transient::service
+}  // namespace transient::wire

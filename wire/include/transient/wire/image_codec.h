@@ -14,7 +14,7 @@
 #include "transient/reconstruct/moment_depth_map.h"
 #include "transient/v1/transient.pb.h"
 
-namespace transient::service {
+namespace transient::wire {
 
 // A region of interest resolved against a sensor: non-empty and inside it.
 struct PixelRect {
@@ -78,4 +78,4 @@ absl::StatusOr<MomentDepthMap> DecodeMomentDepth(const v1::Image& image);
 uint16_t FloatToHalf(float value);
 float HalfToFloat(uint16_t bits);
 
-}  // namespace transient::service
+}  // namespace transient::wire

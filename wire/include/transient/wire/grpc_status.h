@@ -6,10 +6,10 @@
 
 #include "absl/status/status.h"
 
-namespace transient::service {
+namespace transient::wire {
 
 grpc::Status ToGrpcStatus(const absl::Status& status);
 // The inverse, for clients and tests.
 absl::Status FromGrpcStatus(const grpc::Status& status);
 
-}  // namespace transient::service
+}  // namespace transient::wire

@@ -1,10 +1,10 @@
 // The one mapping between absl::Status and grpc::Status: the codes are the same numbers, but an
 // explicit switch keeps that an audited fact rather than a cast.
-#include "transient/service/grpc_status.h"
+#include "transient/wire/grpc_status.h"
 
 #include <string>
 
-namespace transient::service {
+namespace transient::wire {
 namespace {
 
 grpc::StatusCode ToGrpcCode(absl::StatusCode code) {
@@ -101,4 +101,4 @@ absl::Status FromGrpcStatus(const grpc::Status& status) {
   return absl::Status(FromGrpcCode(status.error_code()), status.error_message());
 }
 
-}  // namespace transient::service
+}  // namespace transient::wire

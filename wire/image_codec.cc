@@ -1,6 +1,6 @@
 // Images on the wire: ROI resolution, encoding to 32FC1/16FC1/16UC1/8UC1 with optional zstd,
 // and the bounds-checked inverse for clients.
-#include "transient/service/image_encoding.h"
+#include "transient/wire/image_codec.h"
 
 #include <zstd.h>
 
@@ -12,7 +12,7 @@
 
 #include "absl/strings/str_cat.h"
 
-namespace transient::service {
+namespace transient::wire {
 namespace {
 
 // Level 1: images are compressed per frame at video rate, where speed matters more than the
@@ -546,4 +546,4 @@ float HalfToFloat(uint16_t bits) {
   return std::bit_cast<float>(sign | ((exponent + (127 - 15)) << 23) | (mantissa << 13));
 }
 
-}  // namespace transient::service
+}  // namespace transient::wire

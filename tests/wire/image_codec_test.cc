@@ -1,6 +1,6 @@
-// Tests of image_encoding.h: ROI resolution, product/encoding checks, round trips of every
+// Tests of image_codec.h: ROI resolution, product/encoding checks, round trips of every
 // encoding with and without zstd, half-float bit patterns, and decoding of corrupt images.
-#include "transient/service/image_encoding.h"
+#include "transient/wire/image_codec.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -18,7 +18,7 @@
 
 #include "tests/support/status_matchers.h"
 
-namespace transient::service {
+namespace transient::wire {
 namespace {
 
 using ::testing::AllOf;
@@ -776,4 +776,4 @@ TEST(DecodeMomentDepth, MissingInfoMismatchedBitsBadRangeAndNanMomentsAreDataLos
 }
 
 }  // namespace
-}  // namespace transient::service
+}  // namespace transient::wire
