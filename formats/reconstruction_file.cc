@@ -72,8 +72,9 @@ absl::Status WritePhases(hid_t file, const std::vector<double>& phases) {
                                    phases.data()) < 0) {
     return absl::InternalError("cannot write /phase_rad");
   }
-  if (absl::Status units = h5::WriteStringAttribute(dataset.get(), "units", "rad"); !units.ok()) {
-    return units;
+  if (absl::Status written = h5::WriteStringAttribute(dataset.get(), "units", units::kRadians);
+      !written.ok()) {
+    return written;
   }
   return dataset.Close();
 }
@@ -139,9 +140,9 @@ absl::StatusOr<ReconstructionFile> ReconstructionFile::Create(const std::string&
       return absl::InternalError(absl::StrCat(path, ": cannot create dataset ", spec.path));
     }
     if (spec.units != nullptr) {
-      if (absl::Status units = h5::WriteStringAttribute(dataset.get(), "units", spec.units);
-          !units.ok()) {
-        return failed(units);
+      if (absl::Status written = h5::WriteStringAttribute(dataset.get(), "units", spec.units);
+          !written.ok()) {
+        return failed(written);
       }
     }
     file.datasets_[Index(spec.product)] = std::move(dataset);

@@ -14,8 +14,8 @@
 
 namespace transient::tools {
 
-inline constexpr char kDensityUnit[] = "sensor units/rad";
-inline constexpr char kLightUnit[] = "sensor units";
+inline constexpr char kDensityUnit[] = "sensor units/rad";  // units::kSensorPerRadian, spelt out
+inline constexpr char kLightUnit[] = "sensor units";         // units::kSensor, spelt out
 
 // Upper ends (and for range both ends) of the colour scales of a run; each is > its lower end.
 struct ViewScales {

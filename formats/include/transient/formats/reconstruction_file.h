@@ -13,6 +13,7 @@
 #include "absl/status/statusor.h"
 #include "transient/formats/h5.h"
 #include "transient/reconstruct/image.h"
+#include "transient/reconstruct/units.h"
 
 namespace transient {
 
@@ -48,23 +49,23 @@ struct ProductLayout {
   Product product;
   const char* path;
   ProductPlanes planes;
-  const char* units;  // nullptr: no units attribute
+  const char* units;  // the dataset's `units` attribute (units.h)
 };
 
 inline constexpr std::array<ProductLayout, kProductCount> kProductLayouts = {{
-    {Product::kRange, "/range_m", ProductPlanes::kOne, "m"},
-    {Product::kZerothMoment, "/c0", ProductPlanes::kOne, nullptr},
-    {Product::kFlags, "/flags", ProductPlanes::kOne, nullptr},
-    {Product::kDensity, "/density", ProductPlanes::kBins, "1/rad"},
-    {Product::kCumulative, "/cumulative", ProductPlanes::kBins, nullptr},
-    {Product::kPisarenkoPhase, "/pisarenko/phase", ProductPlanes::kOrder, "rad"},
-    {Product::kPisarenkoWeight, "/pisarenko/weight", ProductPlanes::kOrder, nullptr},
-    {Product::kPisarenkoUniform, "/pisarenko/uniform", ProductPlanes::kOne, nullptr},
-    {Product::kPisarenkoRange, "/pisarenko/range_m", ProductPlanes::kOne, "m"},
-    {Product::kPisarenkoDirect, "/pisarenko/direct", ProductPlanes::kOne, nullptr},
-    {Product::kPisarenkoIndirect, "/pisarenko/indirect", ProductPlanes::kOne, nullptr},
-    {Product::kBoundsLower, "/bounds/lower", ProductPlanes::kBins, "1/rad"},
-    {Product::kBoundsUpper, "/bounds/upper", ProductPlanes::kBins, "1/rad"},
+    {Product::kRange, "/range_m", ProductPlanes::kOne, units::kMetres},
+    {Product::kZerothMoment, "/c0", ProductPlanes::kOne, units::kSensor},
+    {Product::kFlags, "/flags", ProductPlanes::kOne, units::kBits},
+    {Product::kDensity, "/density", ProductPlanes::kBins, units::kSensorPerRadian},
+    {Product::kCumulative, "/cumulative", ProductPlanes::kBins, units::kSensor},
+    {Product::kPisarenkoPhase, "/pisarenko/phase", ProductPlanes::kOrder, units::kRadians},
+    {Product::kPisarenkoWeight, "/pisarenko/weight", ProductPlanes::kOrder, units::kSensor},
+    {Product::kPisarenkoUniform, "/pisarenko/uniform", ProductPlanes::kOne, units::kSensor},
+    {Product::kPisarenkoRange, "/pisarenko/range_m", ProductPlanes::kOne, units::kMetres},
+    {Product::kPisarenkoDirect, "/pisarenko/direct", ProductPlanes::kOne, units::kSensor},
+    {Product::kPisarenkoIndirect, "/pisarenko/indirect", ProductPlanes::kOne, units::kSensor},
+    {Product::kBoundsLower, "/bounds/lower", ProductPlanes::kBins, units::kSensorPerRadian},
+    {Product::kBoundsUpper, "/bounds/upper", ProductPlanes::kBins, units::kSensorPerRadian},
 }};
 
 constexpr bool ProductLayoutsAreInEnumOrder() {
