@@ -16,8 +16,7 @@
 #include "absl/strings/str_format.h"
 #include "transient/drivers/calibration_capture.h"
 #include "transient/formats/calibration_file.h"
-#include "transient/drivers/replay_source.h"
-#include "transient/drivers/simulator.h"
+#include "transient/drivers/source_registry.h"
 #include "transient/reconstruct/cycle_assembler.h"
 #include "transient/reconstruct/demodulation.h"
 #include "transient/reconstruct/smoothing.h"
@@ -35,13 +34,6 @@ constexpr uint64_t kMaxRecordingFrames = uint64_t{1} << 32;
 absl::Mutex& Hdf5Mutex() {
   static absl::Mutex* mu = new absl::Mutex();
   return *mu;
-}
-
-bool IsFastReplay(const std::string& uri) {
-  if (!absl::StartsWith(uri, "replay:")) return false;
-  std::string path;
-  absl::StatusOr<ReplayOptions> options = ParseReplayUri(uri, &path);
-  return options.ok() && options->pace == ReplayPace::kFast;
 }
 
 double Percentile(std::vector<double> values, double q) {
@@ -763,21 +755,6 @@ void Pipeline::Impl::ReconstructLoop() {
 // ---------------------------------------------------------------------------------------------
 // Pipeline
 
-absl::StatusOr<std::string> CalibrationSourceFor(const std::string& source_uri) {
-  if (!absl::StartsWith(source_uri, "sim:")) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "source_uri: required for ", source_uri,
-        " (only a simulator has a calibration scene; point a camera into its light source, "
-        "thesis fig. 8.3, and name that source)"));
-  }
-  absl::StatusOr<SimulatorOptions> options = ParseSimulatorUri(source_uri);
-  if (!options.ok()) return options.status();
-  options->scene = "calibration";
-  options->pace = Pace::kFast;
-  options->frames = 0;
-  return FormatSimulatorUri(*options);
-}
-
 Pipeline::Pipeline(PipelineOptions options) : impl_(std::make_unique<Impl>(std::move(options))) {}
 
 Pipeline::~Pipeline() { Stop(); }
@@ -817,7 +794,7 @@ absl::StatusOr<std::unique_ptr<Pipeline>> Pipeline::Create(PipelineOptions optio
     absl::MutexLock state_lock(&impl.mu);
     impl.schedule = std::make_shared<const AcquisitionSchedule>(schedule);
     impl.config.takes = schedule.options().takes;
-    impl.block_when_full = IsFastReplay(impl.options.source_uri);
+    impl.block_when_full = (*opened)->capabilities().waits_for_consumer;
     // Opened again by the source thread (Start), so that reopening follows one path.
   }
   return pipeline;
@@ -951,18 +928,13 @@ absl::Status Pipeline::SetConfig(const ReconstructionConfig& config) {
       return absl::FailedPreconditionError(
           absl::StrCat("takes: the source ", impl_->source_uri, " has ended"));
     }
-    if (!absl::StartsWith(impl_->source_uri, "sim:")) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          "takes: the source ", impl_->source_uri, " fixes its schedule (", impl_->config.takes,
-          " takes); only a simulator source can change it"));
+    absl::StatusOr<std::string> uri = SourceUriWithTakes(impl_->source_uri, config.takes);
+    if (absl::IsFailedPrecondition(uri.status())) {
+      return absl::FailedPreconditionError(absl::StrCat("takes (", impl_->config.takes,
+                                                        " now): ", uri.status().message()));
     }
-    absl::StatusOr<SimulatorOptions> sim = ParseSimulatorUri(impl_->source_uri);
-    if (!sim.ok()) return sim.status();
-    sim->schedule.takes = config.takes;
-    if (absl::Status status = sim->schedule.Validate(); !status.ok()) {
-      return absl::InvalidArgumentError(absl::StrCat("takes: ", status.message()));
-    }
-    impl_->source_uri = FormatSimulatorUri(*sim);
+    if (!uri.ok()) return uri.status();
+    impl_->source_uri = *std::move(uri);
     impl_->reopen_requested = true;
   }
   impl_->config = config;
@@ -991,7 +963,10 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
   }
   if (uri.empty()) {
     absl::StatusOr<std::string> derived = CalibrationSourceFor(stream_uri);
-    if (!derived.ok()) return derived.status();
+    if (!derived.ok()) {
+      return absl::Status(derived.status().code(),
+                          absl::StrCat("source_uri: required: ", derived.status().message()));
+    }
     uri = *derived;
   }
   if (!output_path.empty() && std::filesystem::exists(output_path)) {

@@ -22,9 +22,8 @@
 #include "absl/strings/strip.h"
 #include "absl/time/clock.h"
 #include "transient/drivers/calibration_capture.h"
+#include "transient/drivers/source_registry.h"
 #include "transient/formats/calibration_file.h"
-#include "transient/formats/capture_file.h"
-#include "transient/drivers/replay_source.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
 
@@ -106,8 +105,9 @@ absl::Status ReadConfigFile(const std::string& path, ReconstructionConfig* confi
   return absl::OkStatus();
 }
 
-// The calibration to start with: --calibration FILE; for a replay, the one embedded in the
-// recording; for a simulator, measured now from its calibration scene (thesis §8.3.2).
+// The calibration to start with: --calibration FILE; else the one the source carries (a
+// recording embeds it); else, when the source has a calibration scene (a simulator), measured
+// now from it (thesis §8.3.2); else none.
 absl::Status ChooseCalibration(const std::string& uri, const std::string& file,
                                bool uncalibrated, PipelineOptions* options) {
   if (uncalibrated) return absl::OkStatus();
@@ -118,16 +118,17 @@ absl::Status ChooseCalibration(const std::string& uri, const std::string& file,
     options->calibration_origin = file;
     return absl::OkStatus();
   }
-  if (absl::StartsWith(uri, "replay:")) {
-    std::string path;
-    if (!ParseReplayUri(uri, &path).ok()) return absl::OkStatus();  // Create reports it
-    absl::StatusOr<CaptureReader> reader = CaptureReader::Open(path);
-    if (!reader.ok()) return reader.status();
-    if (reader->calibration().has_value()) {
-      options->calibration = reader->calibration();
-      options->calibration_origin = absl::StrCat(path, ": /calibration");
+  absl::StatusOr<const SourceScheme*> scheme = FindSourceScheme(uri);
+  if (!scheme.ok()) return absl::OkStatus();  // Pipeline::Create reports it
+  if ((*scheme)->capabilities.embedded_calibration) {
+    absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSource(uri);
+    if (!source.ok()) return source.status();
+    std::string origin;
+    if (const CalibrationTable* table = (*source)->embedded_calibration(&origin)) {
+      options->calibration = *table;
+      options->calibration_origin = origin;
     } else {
-      Log(absl::StrCat(path, " has no embedded calibration: moments are uncalibrated"));
+      Log(absl::StrCat(uri, " carries no calibration: moments are uncalibrated"));
     }
     return absl::OkStatus();
   }
@@ -161,9 +162,10 @@ int Run(int argc, char** argv) {
   std::string port_file;
   double stats_interval_s = 10.0;
   app.add_option("--source", source_uri,
-                 "capture source URI: sim:<scene>?key=value (see `transient sim --help`), "
-                 "replay:<file.h5>?loop=1&pace=fast")
+                 "capture source URI (the schemes and their keys are listed below, and by "
+                 "`transient sources`)")
       ->capture_default_str();
+  app.footer(absl::StrCat("Sources:\n", DescribeSourceSchemes()));
   app.add_option("--calibration", calibration_path,
                  "calibration file (transient calibrate); default: a replay's embedded one, or "
                  "for a simulator one measured at start from its calibration scene");

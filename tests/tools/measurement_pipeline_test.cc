@@ -11,6 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "tests/support/scratch_directory.h"
+#include "transient/drivers/simulator.h"
 #include "tests/support/status_matchers.h"
 #include "tests/formats/test_files.h"
 #include "tools/transient/capture_commands.h"
@@ -46,7 +47,7 @@ class MeasurementPipeline : public ::testing::Test {
 
   void Simulate(const std::string& scene, const std::string& keys, int frames,
                 const std::string& path) {
-    absl::StatusOr<std::string> uri = SimUri(scene, frames, {});
+    absl::StatusOr<std::string> uri = SimulatorUri(scene, frames, {});
     ASSERT_THAT(uri.status(), IsOk());
     RecordArgs args{.source_uri = absl::StrCat(*uri, "&", keys), .output_path = path,
                     .frames = frames};
@@ -243,13 +244,13 @@ TEST_F(MeasurementPipeline, InfoNamesEveryKindOfFile) {
 
 TEST(MeasurementCommands, BadInputsAreRefusedWithTheirName) {
   ScratchDirectory dir;
-  EXPECT_THAT(SimUri("nowhere", 1, {}).status(),
+  EXPECT_THAT(SimulatorUri("nowhere", 1, {}).status(),
               StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("nowhere")));
-  EXPECT_THAT(SimUri("mirrors", 1, {"colour=blue"}).status(),
+  EXPECT_THAT(SimulatorUri("mirrors", 1, {"colour=blue"}).status(),
               StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("colour")));
-  EXPECT_THAT(SimUri("mirrors", 1, {"m"}).status(),
+  EXPECT_THAT(SimulatorUri("mirrors", 1, {"m"}).status(),
               StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("key=value")));
-  EXPECT_THAT(SimUri("mirrors", 0, {}).status(),
+  EXPECT_THAT(SimulatorUri("mirrors", 0, {}).status(),
               StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--frames")));
   EXPECT_THAT(RunRecord({.source_uri = "sim:mirrors", .output_path = dir.File("a.h5")}).status(),
               StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("--frames")));

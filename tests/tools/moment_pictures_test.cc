@@ -20,6 +20,7 @@
 #include "absl/strings/str_cat.h"
 #include "tests/tools/image_readers.h"
 #include "tests/support/scratch_directory.h"
+#include "transient/drivers/simulator.h"
 #include "tests/support/video_probe.h"
 #include "tests/support/status_matchers.h"
 #include "tests/formats/view_test_files.h"
@@ -299,7 +300,7 @@ class MomentView : public ::testing::Test {
  protected:
   void SetUp() override {
     testing::WriteViewReconstruction(input());
-    absl::StatusOr<std::string> uri = SimUri("mirrors", 1, {"width=12", "height=8"});
+    absl::StatusOr<std::string> uri = SimulatorUri("mirrors", 1, {"width=12", "height=8"});
     ASSERT_THAT(uri.status(), IsOk());
     ASSERT_THAT(RunRecord({.source_uri = *uri, .output_path = camera(), .frames = 1}).status(),
                 IsOk());

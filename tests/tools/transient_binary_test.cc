@@ -81,6 +81,15 @@ TEST_F(TransientBinary, GoodFileExitsWithZeroAndPrintsOneSummaryLine) {
   EXPECT_THAT(dir_.Entries(), ElementsAre("in.h5", "out.h5"));
 }
 
+TEST_F(TransientBinary, SourcesListsEverySchemeWithItsKeys) {
+  const Result result = Run({"sources"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  for (const char* text : {"sim:<scene>?key=value", "replay:<capture.h5>", "calibration scene",
+                           "m (default 3)", "pace (default realtime)", "width (default 163 px)"}) {
+    EXPECT_THAT(result.out, HasSubstr(text));
+  }
+}
+
 TEST_F(TransientBinary, BadFileExitsWithTwoAndOneErrorLine) {
   testing::SetStringAttribute(input(), "/", "format", "transient-moments 2");
   const Result result = Run({"reconstruct", input(), output()});

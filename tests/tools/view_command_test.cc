@@ -14,6 +14,7 @@
 
 #include "tests/tools/image_readers.h"
 #include "tests/support/scratch_directory.h"
+#include "transient/drivers/simulator.h"
 #include "tests/support/video_probe.h"
 #include "tests/support/status_matchers.h"
 #include "tests/formats/test_files.h"
@@ -246,7 +247,7 @@ TEST(ViewCommand, PointCloudTakesTheIntrinsicsOfACaptureFileOfTheSameCamera) {
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "out"));
 
   // A simulated camera of the reconstruction's size.
-  absl::StatusOr<std::string> uri = SimUri("mirrors", 1, {"width=12", "height=8"});
+  absl::StatusOr<std::string> uri = SimulatorUri("mirrors", 1, {"width=12", "height=8"});
   ASSERT_THAT(uri.status(), IsOk());
   ASSERT_THAT(RunRecord({.source_uri = *uri, .output_path = dir.File("cap.h5"), .frames = 1})
                   .status(),
@@ -323,7 +324,7 @@ TEST(ViewCommand, AMomentFileIsReconstructedFirst) {
 
 TEST(ViewCommand, ACaptureFileIsDemodulatedAndGivesItsOwnIntrinsics) {
   ScratchDirectory dir;
-  absl::StatusOr<std::string> uri = SimUri("corner", 1, {"width=12", "height=8"});
+  absl::StatusOr<std::string> uri = SimulatorUri("corner", 1, {"width=12", "height=8"});
   ASSERT_THAT(uri.status(), IsOk());
   ASSERT_THAT(RunRecord({.source_uri = *uri, .output_path = dir.File("cap.h5"), .frames = 1})
                   .status(),

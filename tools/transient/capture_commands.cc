@@ -87,24 +87,6 @@ absl::Status RecordArgs::Validate() const {
   return absl::OkStatus();
 }
 
-absl::StatusOr<std::string> SimUri(const std::string& scene, int64_t frames,
-                                   const std::vector<std::string>& keys) {
-  if (frames < 1) {
-    return absl::InvalidArgumentError(absl::StrCat("--frames = ", frames, ": expected >= 1"));
-  }
-  std::string uri = absl::StrCat("sim:", scene, "?pace=fast&frames=", frames);
-  for (const std::string& key : keys) {
-    if (!absl::StrContains(key, '=')) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("--set '", key, "': expected key=value (see transient sim --help)"));
-    }
-    absl::StrAppend(&uri, "&", key);
-  }
-  absl::StatusOr<SimulatorOptions> options = ParseSimulatorUri(uri);
-  if (!options.ok()) return options.status();
-  return uri;
-}
-
 absl::StatusOr<RecordSummary> RunRecord(const RecordArgs& args, const CommandHooks& hooks) {
   if (absl::Status status = args.Validate(); !status.ok()) return status;
   if (std::filesystem::exists(args.output_path)) {

@@ -24,7 +24,7 @@ struct CommandHooks {
 };
 
 // `transient record --source URI --out FILE (--frames N | --seconds S)` and, through
-// SimUri(), `transient sim SCENE --out FILE ...`.
+// SimulatorUri() (simulator.h), `transient sim SCENE --out FILE ...`.
 struct RecordArgs {
   std::string source_uri = {};
   std::string output_path = {};
@@ -55,12 +55,6 @@ struct RecordSummary {
 [[nodiscard]] absl::StatusOr<RecordSummary> RunRecord(const RecordArgs& args,
                                                       const CommandHooks& hooks = {});
 std::string FormatRecordSummary(const RecordSummary& summary);
-
-// The simulator URI of `transient sim SCENE`: "sim:SCENE?pace=fast&frames=N" followed by the
-// keys given as options ("key=value" each). InvalidArgument (from ParseSimulatorUri) when the
-// scene, a key or a value is unknown or the schedule is impossible.
-[[nodiscard]] absl::StatusOr<std::string> SimUri(const std::string& scene, int64_t frames,
-                                                 const std::vector<std::string>& keys);
 
 // `transient calibrate --source URI --out FILE --takes N`.
 struct CalibrateArgs {

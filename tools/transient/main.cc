@@ -18,6 +18,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "transient/drivers/simulator.h"
+#include "transient/drivers/source_registry.h"
 #include "tools/eval/eval_command.h"
 #include "tools/transient/bench_command.h"
 #include "tools/transient/capture_commands.h"
@@ -244,7 +245,7 @@ std::string SimHelp() {
     absl::StrAppend(&text, "  ", scene.name, ": ", scene.description, "\n");
   }
   absl::StrAppend(&text, "Keys for --set key=value (URI sim:<scene>?key=value&...):\n");
-  for (const transient::SimulatorKey& key : transient::SimulatorKeys()) {
+  for (const transient::SourceKey& key : transient::SimulatorKeys()) {
     absl::StrAppend(&text, "  ", key.name, " (default ", key.default_value,
                     key.unit.empty() ? "" : absl::StrCat(" ", key.unit), "): ", key.description,
                     "\n");
@@ -280,7 +281,7 @@ int RunSimCommand(SimCommandLine& line) {
     if (!value.empty()) keys.push_back(key + "=" + value);
   }
   keys.insert(keys.end(), line.keys.begin(), line.keys.end());
-  absl::StatusOr<std::string> uri = transient::tools::SimUri(line.scene, line.frames, keys);
+  absl::StatusOr<std::string> uri = transient::SimulatorUri(line.scene, line.frames, keys);
   if (!uri.ok()) {
     std::cerr << ErrorLine(uri.status()) << "\n";
     return kExitBadInput;
@@ -298,8 +299,7 @@ CLI::App* AddRecordCommand(CLI::App& app, transient::tools::RecordArgs& args) {
   CLI::App* command = app.add_subcommand(
       "record", "Record raw frames from a source into a capture file (transient-capture 1); "
                 "flushed at least once a second, readable after a crash up to the last flush.");
-  command->add_option("--source", args.source_uri,
-                      "sim:<scene>?key=value&... or replay:<capture.h5>?loop=0&pace=fast")
+  command->add_option("--source", args.source_uri, "source URI (see transient sources)")
       ->required();
   command->add_option("--out", args.output_path, "capture file to write (must not exist)")
       ->required();
@@ -731,6 +731,9 @@ int main(int argc, char** argv) {
   CLI::App* moments = AddMomentsCommand(app, moments_args);
   std::string info_path;
   CLI::App* info = AddInfoCommand(app, info_path);
+  CLI::App* sources = app.add_subcommand(
+      "sources", "List the capture source URI schemes, their keys with defaults and units, and "
+                 "what each source can do.");
   ClientCommandLine client_line;
   CLI::App* client = AddClientCommand(app, client_line);
   ViewCommandLine view_line;
@@ -772,6 +775,10 @@ int main(int argc, char** argv) {
         transient::tools::FormatMomentsSummary);
   }
   if (info->parsed()) return RunInfoCommand(info_path);
+  if (sources->parsed()) {
+    std::cout << transient::DescribeSourceSchemes();
+    return 0;
+  }
   if (client->parsed()) return RunClientCommand(client_line);
   if (view->parsed()) return RunViewCommand(view_line);
   if (eval->parsed()) return RunEvalCommand(eval_args);

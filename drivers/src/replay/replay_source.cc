@@ -9,28 +9,23 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
-#include "source_openers.h"
+#include "source_uri.h"
+#include "transient/drivers/source_registry.h"
 
 namespace transient {
 
 absl::StatusOr<ReplayOptions> ParseReplayUri(absl::string_view uri, std::string* path) {
-  constexpr absl::string_view kScheme = "replay:";
-  if (!absl::StartsWith(uri, kScheme)) {
+  absl::StatusOr<internal::SourceUri> parsed = internal::ParseSourceUri(uri);
+  if (!parsed.ok()) return parsed.status();
+  if (parsed->scheme != "replay") {
     return absl::InvalidArgumentError(
         absl::StrCat(uri, ": expected replay:<file.h5>?loop=0|1&pace=realtime|fast&start=<cycle>"));
   }
-  const absl::string_view rest = uri.substr(kScheme.size());
-  const size_t question = rest.find('?');
-  *path = std::string(rest.substr(0, question));
+  *path = parsed->target;
   if (path->empty()) return absl::InvalidArgumentError(absl::StrCat(uri, ": no file path"));
   ReplayOptions options;
-  if (question == absl::string_view::npos) return options;
-  for (absl::string_view pair : absl::StrSplit(rest.substr(question + 1), '&', absl::SkipEmpty())) {
-    const size_t equals = pair.find('=');
-    const absl::string_view key = pair.substr(0, equals);
-    const absl::string_view value =
-        equals == absl::string_view::npos ? absl::string_view() : pair.substr(equals + 1);
-    const auto bad_value = [&](absl::string_view expected) {
+  for (const auto& [key, value] : parsed->keys) {
+    const auto bad_value = [&, &key = key, &value = value](absl::string_view expected) {
       return absl::InvalidArgumentError(
           absl::StrCat(uri, ": ", key, " = '", value, "'; expected ", expected));
     };
@@ -76,6 +71,7 @@ absl::StatusOr<std::unique_ptr<ReplaySource>> ReplaySource::Open(absl::string_vi
 SourceCapabilities ReplaySource::capabilities() const {
   SourceCapabilities capabilities;
   capabilities.replay = true;
+  capabilities.waits_for_consumer = options_.pace == ReplayPace::kFast;
   bool first = true;
   for (const ExposureConfig& exposure : schedule().exposures()) {
     if (first || exposure.frequency_hz < capabilities.min_frequency_hz) {
@@ -165,6 +161,12 @@ absl::Status ReplaySource::Next(absl::Duration timeout, RawFrame* frame) {
   return absl::OkStatus();
 }
 
+const CalibrationTable* ReplaySource::embedded_calibration(std::string* origin) const {
+  if (!reader_.calibration().has_value()) return nullptr;
+  if (origin != nullptr) *origin = absl::StrCat(reader_.path(), ": /calibration");
+  return &*reader_.calibration();
+}
+
 absl::StatusOr<GroundTruth> ReplaySource::GroundTruthAt(double timestamp_s) const {
   (void)timestamp_s;
   if (!reader_.ground_truth().has_value()) {
@@ -174,12 +176,35 @@ absl::StatusOr<GroundTruth> ReplaySource::GroundTruthAt(double timestamp_s) cons
 }
 
 namespace internal {
+namespace {
+
+constexpr SourceKey kReplayKeys[] = {
+    {"loop", "0", "", "1: start over at the end, cycles and timestamps still increasing"},
+    {"pace", "realtime", "",
+     "realtime (as recorded) or fast (as fast as taken, never dropping a frame)"},
+    {"start", "first", "", "the recorded capture cycle to begin with"},
+};
 
 absl::StatusOr<std::unique_ptr<CaptureSource>> OpenReplaySource(absl::string_view uri) {
   absl::StatusOr<std::unique_ptr<ReplaySource>> source = ReplaySource::Open(uri);
   if (!source.ok()) return source.status();
   return std::unique_ptr<CaptureSource>(*std::move(source));
 }
+
+}  // namespace
+
+extern const SourceScheme kReplayScheme;
+const SourceScheme kReplayScheme = {
+    .name = "replay",
+    .syntax = "replay:<capture.h5>?loop=0|1&pace=realtime|fast&start=<cycle>",
+    .description = "a recorded capture file (transient record, sim, or the daemon's recording)",
+    .keys = kReplayKeys,
+    .capabilities = {.ground_truth = true,
+                     .seek = true,
+                     .pace = true,
+                     .embedded_calibration = true},
+    .open = OpenReplaySource,
+};
 
 }  // namespace internal
 }  // namespace transient

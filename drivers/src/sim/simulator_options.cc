@@ -12,6 +12,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "source_uri.h"
 #include "transient/drivers/simulator.h"
 
 namespace transient {
@@ -33,7 +34,7 @@ constexpr SimulatorScene kScenes[] = {
      "(thesis fig. 8.3)"},
 };
 
-constexpr SimulatorKey kKeys[] = {
+constexpr SourceKey kKeys[] = {
     {"f", "23e6", "Hz", "base modulation frequency; harmonic j is modulated at j*f"},
     {"m", "3", "", "number of harmonics m (moments c_0..c_m)"},
     {"scheme", "arccos", "", "four-bucket, arccos or harmonic-cancellation (thesis §8.3.1)"},
@@ -209,7 +210,7 @@ const std::map<absl::string_view, Setter>& Setters() {
 
 std::string KeyNames() {
   std::vector<absl::string_view> names;
-  for (const SimulatorKey& key : kKeys) names.push_back(key.name);
+  for (const SourceKey& key : kKeys) names.push_back(key.name);
   return absl::StrJoin(names, ", ");
 }
 
@@ -258,7 +259,7 @@ absl::string_view PaceName(Pace pace) {
 }
 
 std::span<const SimulatorScene> SimulatorScenes() { return kScenes; }
-std::span<const SimulatorKey> SimulatorKeys() { return kKeys; }
+std::span<const SourceKey> SimulatorKeys() { return kKeys; }
 
 absl::Status SimulatorOptions::Validate() const {
   bool known_scene = false;
@@ -312,43 +313,27 @@ absl::Status SimulatorOptions::Validate() const {
 }
 
 absl::StatusOr<SimulatorOptions> ParseSimulatorUri(absl::string_view uri) {
-  constexpr absl::string_view kScheme = "sim:";
-  if (!absl::StartsWith(uri, kScheme)) {
+  absl::StatusOr<internal::SourceUri> parsed = internal::ParseSourceUri(uri);
+  if (!parsed.ok()) return parsed.status();
+  if (parsed->scheme != "sim") {
     return absl::InvalidArgumentError(
         absl::StrCat("'", uri, "' is not a simulator URI; expected sim:<scene>?key=value&..."));
   }
-  absl::string_view rest = uri.substr(kScheme.size());
-  const size_t question = rest.find('?');
   SimulatorOptions options;
-  options.scene = std::string(rest.substr(0, question));
+  options.scene = parsed->target;
   bool known_scene = false;
   for (const SimulatorScene& s : kScenes) known_scene |= (s.name == options.scene);
   if (!known_scene) {
     return absl::InvalidArgumentError(
         absl::StrCat("sim: unknown scene '", options.scene, "'; expected one of ", SceneNames()));
   }
-  if (question != absl::string_view::npos) {
-    std::map<std::string, bool> seen;
-    for (absl::string_view pair :
-         absl::StrSplit(rest.substr(question + 1), '&', absl::SkipEmpty())) {
-      const size_t equals = pair.find('=');
-      if (equals == absl::string_view::npos || equals == 0 || equals + 1 == pair.size()) {
-        return absl::InvalidArgumentError(absl::StrCat("sim: malformed parameter '", pair, "' in '",
-                                                       uri, "'; expected key=value"));
-      }
-      const absl::string_view key = pair.substr(0, equals);
-      const absl::string_view value = pair.substr(equals + 1);
-      const auto setter = Setters().find(key);
-      if (setter == Setters().end()) {
-        return absl::InvalidArgumentError(
-            absl::StrCat("sim: unknown key '", key, "'; accepted keys: ", KeyNames()));
-      }
-      if (seen[std::string(key)]) {
-        return absl::InvalidArgumentError(absl::StrCat("sim: key ", key, " given twice"));
-      }
-      seen[std::string(key)] = true;
-      if (absl::Status status = setter->second(key, value, &options); !status.ok()) return status;
+  for (const auto& [key, value] : parsed->keys) {
+    const auto setter = Setters().find(key);
+    if (setter == Setters().end()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("sim: unknown key '", key, "'; accepted keys: ", KeyNames()));
     }
+    if (absl::Status status = setter->second(key, value, &options); !status.ok()) return status;
   }
   if (absl::Status status = options.Validate(); !status.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("sim: ", status.message()));
@@ -400,6 +385,24 @@ std::string FormatSimulatorUri(const SimulatorOptions& o) {
   integer("k", o.sparse_k, d.sparse_k);
   std::string uri = absl::StrCat("sim:", o.scene);
   if (!parts.empty()) absl::StrAppend(&uri, "?", absl::StrJoin(parts, "&"));
+  return uri;
+}
+
+absl::StatusOr<std::string> SimulatorUri(absl::string_view scene, int64_t frames,
+                                         const std::vector<std::string>& keys) {
+  if (frames < 1) {
+    return absl::InvalidArgumentError(absl::StrCat("--frames = ", frames, ": expected >= 1"));
+  }
+  std::string uri = absl::StrCat("sim:", scene, "?pace=fast&frames=", frames);
+  for (const std::string& key : keys) {
+    if (!absl::StrContains(key, '=')) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--set '", key, "': expected key=value (see transient sim --help)"));
+    }
+    absl::StrAppend(&uri, "&", key);
+  }
+  absl::StatusOr<SimulatorOptions> options = ParseSimulatorUri(uri);
+  if (!options.ok()) return options.status();
   return uri;
 }
 

@@ -12,7 +12,6 @@
 #include "random.h"
 #include "scene.h"
 #include "sensor.h"
-#include "source_openers.h"
 #include "transient/drivers/simulator.h"
 
 namespace transient {
@@ -245,12 +244,51 @@ absl::StatusOr<std::unique_ptr<CaptureSource>> OpenSimulator(const SimulatorOpti
 }
 
 namespace internal {
+namespace {
 
 absl::StatusOr<std::unique_ptr<CaptureSource>> OpenSimulatorSource(absl::string_view uri) {
   absl::StatusOr<SimulatorOptions> options = ParseSimulatorUri(uri);
   if (!options.ok()) return options.status();
   return Open(std::string(uri), *options);
 }
+
+// The `calibration` scene with the same camera keys, as fast as possible and endless.
+absl::StatusOr<std::string> SimulatorCalibrationSource(absl::string_view uri) {
+  absl::StatusOr<SimulatorOptions> options = ParseSimulatorUri(uri);
+  if (!options.ok()) return options.status();
+  options->scene = "calibration";
+  options->pace = Pace::kFast;
+  options->frames = 0;
+  return FormatSimulatorUri(*options);
+}
+
+absl::StatusOr<std::string> SimulatorWithTakes(absl::string_view uri, int takes) {
+  absl::StatusOr<SimulatorOptions> options = ParseSimulatorUri(uri);
+  if (!options.ok()) return options.status();
+  options->schedule.takes = takes;
+  if (absl::Status status = options->schedule.Validate(); !status.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("takes: ", status.message()));
+  }
+  return FormatSimulatorUri(*options);
+}
+
+}  // namespace
+
+extern const SourceScheme kSimulatorScheme;
+const SourceScheme kSimulatorScheme = {
+    .name = "sim",
+    .syntax = "sim:<scene>?key=value&...",
+    .description =
+        "the built-in AMCW camera simulator; scenes mirrors, corner, sparse, video, calibration",
+    .keys = SimulatorKeys(),
+    .capabilities = {.ground_truth = true,
+                     .pace = true,
+                     .calibration_scene = true,
+                     .adjustable_takes = true},
+    .open = OpenSimulatorSource,
+    .calibration_source = SimulatorCalibrationSource,
+    .with_takes = SimulatorWithTakes,
+};
 
 }  // namespace internal
 }  // namespace transient

@@ -6,12 +6,11 @@
 #include <cmath>
 #include <numbers>
 
-#include "source_openers.h"
 
 namespace transient::sim::testing {
 
 std::unique_ptr<CaptureSource> OpenOrDie(absl::string_view uri) {
-  absl::StatusOr<std::unique_ptr<CaptureSource>> source = internal::OpenSimulatorSource(uri);
+  absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSource(uri);
   EXPECT_TRUE(source.ok()) << uri << ": " << source.status();
   if (!source.ok()) return nullptr;
   return *std::move(source);

@@ -42,7 +42,7 @@ TEST(SimulatorUri, SceneAloneGivesTheDocumentedDefaults) {
 
 TEST(SimulatorUri, KeyTableDefaultsParseToTheDefaultOptions) {
   std::string uri = "sim:mirrors?";
-  for (const SimulatorKey& key : SimulatorKeys()) {
+  for (const SourceKey& key : SimulatorKeys()) {
     uri += std::string(key.name) + "=" + std::string(key.default_value) + "&";
   }
   const absl::StatusOr<SimulatorOptions> o = ParseSimulatorUri(uri);

@@ -13,6 +13,7 @@
 #include "absl/strings/string_view.h"
 #include "absl/time/time.h"
 #include "transient/reconstruct/acquisition.h"
+#include "transient/reconstruct/calibration.h"
 #include "transient/reconstruct/camera_model.h"
 #include "transient/reconstruct/ground_truth.h"
 #include "transient/reconstruct/image.h"
@@ -27,6 +28,9 @@ struct SourceCapabilities {
   bool unmodulated_exposures = false;  // the zeroth-moment pair
   double min_exposure_s = 0.0, max_exposure_s = 0.0;
   bool replay = false;  // a recording: finite, ends with OutOfRange
+  // Frames come as fast as they are taken and none may be lost (a replay at pace=fast): a
+  // consumer that falls behind waits for room instead of dropping frames.
+  bool waits_for_consumer = false;
 };
 
 // A source of raw frames. Use from one thread: Open, Start, Next... , Stop. Sources run the
@@ -58,13 +62,21 @@ class CaptureSource {
     (void)timestamp_s;
     return absl::UnimplementedError(uri() + " has no ground truth");
   }
+
+  // The calibration the source carries (a recording embeds the one it was made with), valid
+  // while the source lives, or nullptr. `origin`, when given, receives where it came from for
+  // messages ("capture.h5: /calibration").
+  virtual const CalibrationTable* embedded_calibration(std::string* origin) const {
+    (void)origin;
+    return nullptr;
+  }
 };
 
-// Opens a source by URI: "sim:<scene>?key=value&..." (simulator.h) or
-// "replay:<path>?loop=0|1&pace=realtime|fast&start=<cycle>" (replay_source.h; default pace
-// realtime, no loop). InvalidArgument for an unknown
-// scheme, scene or key, or an impossible schedule; NotFound / InvalidArgument / DataLoss for a
-// replay file that cannot be used. The message names what was wrong.
+// Opens a source by URI through the registry of schemes (source_registry.h): for example
+// "sim:<scene>?key=value&..." (simulator.h) or
+// "replay:<path>?loop=0|1&pace=realtime|fast&start=<cycle>" (replay_source.h). InvalidArgument
+// for an unknown scheme, scene or key, or an impossible schedule; NotFound / InvalidArgument /
+// DataLoss for a replay file that cannot be used. The message names what was wrong.
 [[nodiscard]] absl::StatusOr<std::unique_ptr<CaptureSource>> OpenSource(absl::string_view uri);
 
 }  // namespace transient

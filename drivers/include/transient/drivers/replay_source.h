@@ -54,6 +54,8 @@ class ReplaySource : public CaptureSource {
   absl::Status Stop() override;
   // The recorded ground truth (the scene is static over a recording); Unimplemented without.
   absl::StatusOr<GroundTruth> GroundTruthAt(double timestamp_s) const override;
+  // The calibration embedded in the recording, if any ("<path>: /calibration").
+  const CalibrationTable* embedded_calibration(std::string* origin) const override;
 
   // Positions the replay at the first recorded frame of capture cycle `cycle` (as recorded, before
   // any loop offset). InvalidArgument when no frame has that cycle. Pacing restarts from there.

@@ -24,11 +24,13 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "transient/drivers/capture_source.h"
+#include "transient/drivers/source_registry.h"
 #include "transient/reconstruct/acquisition.h"
 
 namespace transient {
@@ -104,15 +106,9 @@ struct SimulatorScene {
   absl::string_view name;
   absl::string_view description;
 };
-// A URI key with its default and unit, for `transient sim --help` and the README.
-struct SimulatorKey {
-  absl::string_view name;
-  absl::string_view default_value;
-  absl::string_view unit;  // "" when dimensionless
-  absl::string_view description;
-};
 std::span<const SimulatorScene> SimulatorScenes();
-std::span<const SimulatorKey> SimulatorKeys();
+// The URI keys with their defaults and units, for `transient sim --help` and the docs.
+std::span<const SourceKey> SimulatorKeys();
 
 // The highest modulation frequency the simulated sensor accepts.
 inline constexpr double kSimulatorMaxFrequencyHz = 500e6;
@@ -123,6 +119,13 @@ inline constexpr double kSimulatorMaxFrequencyHz = 500e6;
 // The URI of `options`: the scene and every key whose value differs from the default, with
 // round-trip precision. ParseSimulatorUri(FormatSimulatorUri(o)) gives o back.
 std::string FormatSimulatorUri(const SimulatorOptions& options);
+
+// The URI of `transient sim SCENE`: "sim:SCENE?pace=fast&frames=N" followed by `keys`
+// ("key=value" each), checked by ParseSimulatorUri. InvalidArgument naming the scene, key or
+// value when one is unknown, "--set '<key>': expected key=value" for a key without a value, and
+// "--frames = N: expected >= 1".
+[[nodiscard]] absl::StatusOr<std::string> SimulatorUri(absl::string_view scene, int64_t frames,
+                                                       const std::vector<std::string>& keys);
 
 // Opens a simulated camera: builds the scene, the camera's fixed pattern and (for static
 // scenes) the noise-free exposures. InvalidArgument when `options` fails Validate().

@@ -204,8 +204,4 @@ class Pipeline {
   std::unique_ptr<Impl> impl_;
 };
 
-// The calibration counterpart of a simulator URI: the `calibration` scene with the same camera
-// keys, paced as fast as possible. InvalidArgument for a source that is not a simulator.
-absl::StatusOr<std::string> CalibrationSourceFor(const std::string& source_uri);
-
 }  // namespace transient::service

@@ -1,0 +1,41 @@
+// Source URIs taken apart into scheme, target and keys.
+#include "source_uri.h"
+
+#include <algorithm>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+
+namespace transient::internal {
+
+absl::StatusOr<SourceUri> ParseSourceUri(absl::string_view uri) {
+  const size_t colon = uri.find(':');
+  if (colon == absl::string_view::npos || colon == 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("'", uri, "' is not a source URI; expected scheme:target?key=value&..."));
+  }
+  SourceUri parsed;
+  parsed.scheme = std::string(uri.substr(0, colon));
+  const absl::string_view rest = uri.substr(colon + 1);
+  const size_t question = rest.find('?');
+  parsed.target = std::string(rest.substr(0, question));
+  if (question == absl::string_view::npos) return parsed;
+  for (absl::string_view pair : absl::StrSplit(rest.substr(question + 1), '&', absl::SkipEmpty())) {
+    const size_t equals = pair.find('=');
+    if (equals == absl::string_view::npos || equals == 0 || equals + 1 == pair.size()) {
+      return absl::InvalidArgumentError(absl::StrCat(parsed.scheme, ": malformed parameter '",
+                                                     pair, "' in '", uri,
+                                                     "'; expected key=value"));
+    }
+    std::string key(pair.substr(0, equals));
+    if (std::any_of(parsed.keys.begin(), parsed.keys.end(),
+                    [&](const auto& entry) { return entry.first == key; })) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(parsed.scheme, ": key ", key, " given twice"));
+    }
+    parsed.keys.emplace_back(std::move(key), std::string(pair.substr(equals + 1)));
+  }
+  return parsed;
+}
+
+}  // namespace transient::internal
