@@ -1,8 +1,8 @@
-// The GLSL `OcclusionFraction` of the README ("Moment depth maps") runs on Mesa's llvmpipe (a
-// software OpenGL ES 3.1 implementation, no GPU needed) in a compute shader, and gives what the
-// C++ functions give: OcclusionFraction on 128-bit texels, OcclusionFractionOptimized64 on
-// 64-bit codes. The shader is taken from the README itself, so the documented code is the
-// tested code.
+// The GLSL `OcclusionFraction` of docs/moment_depth_maps.md ("For renderer authors") runs on
+// Mesa's llvmpipe (a software OpenGL ES 3.1 implementation, no GPU needed) in a compute shader,
+// and gives what the C++ functions give: OcclusionFraction on 128-bit texels,
+// OcclusionFractionOptimized64 on 64-bit codes. The shader is taken from the page itself, so the
+// documented code is the tested code.
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
 #include <GLES3/gl31.h>
@@ -25,9 +25,9 @@
 namespace transient {
 namespace {
 
-// The first ```glsl block of the README.
-std::string ReadmeGlsl() {
-  std::ifstream file(TRANSIENT_README);
+// The first ```glsl block of the moment depth map page.
+std::string DocumentedGlsl() {
+  std::ifstream file(TRANSIENT_MOMENT_DEPTH_DOC);
   const std::string text((std::istreambuf_iterator<char>(file)), {});
   const std::string open = "```glsl\n";
   const size_t begin = text.find(open);
@@ -101,7 +101,7 @@ void main() {
 }
 )";
 
-// Compiles the README's functions into the compute program; the info log on failure.
+// Compiles the page's functions into the compute program; the info log on failure.
 GLuint BuildProgram(const std::string& functions, std::string* log) {
   const std::string source = std::string(kShaderHead) + functions + kShaderMain;
   const char* text = source.c_str();
@@ -198,9 +198,9 @@ Cases RandomCases(int count) {
 // by 1.01 (0.73).
 constexpr float kTolerance = 1e-3f;
 
-TEST(ReadmeGlsl, OcclusionFractionOnLlvmpipeMatchesTheCppFunctions) {
-  const std::string functions = ReadmeGlsl();
-  ASSERT_FALSE(functions.empty()) << "no ```glsl block in " << TRANSIENT_README;
+TEST(MomentDepthGlsl, OcclusionFractionOnLlvmpipeMatchesTheCppFunctions) {
+  const std::string functions = DocumentedGlsl();
+  ASSERT_FALSE(functions.empty()) << "no ```glsl block in " << TRANSIENT_MOMENT_DEPTH_DOC;
   GlContext context;
   ASSERT_EQ(context.error(), "") << "OpenGL ES 3.1 through EGL on Mesa (llvmpipe) is needed";
   std::string log;
