@@ -19,6 +19,7 @@
 #include "transient/drivers/source_registry.h"
 #include "transient/reconstruct/cycle_assembler.h"
 #include "transient/reconstruct/demodulation.h"
+#include "transient/reconstruct/percentile.h"
 #include "transient/reconstruct/smoothing.h"
 
 namespace transient::service {
@@ -34,13 +35,6 @@ constexpr uint64_t kMaxRecordingFrames = uint64_t{1} << 32;
 absl::Mutex& Hdf5Mutex() {
   static absl::Mutex* mu = new absl::Mutex();
   return *mu;
-}
-
-double Percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  const size_t k = std::min(values.size() - 1, static_cast<size_t>(q * values.size()));
-  std::nth_element(values.begin(), values.begin() + static_cast<ptrdiff_t>(k), values.end());
-  return values[k];
 }
 
 // The source of a Calibrate RPC: each call holds the HDF5 mutex only for itself (a replay reads
@@ -1100,10 +1094,13 @@ PipelineStats Pipeline::Stats() const {
   PipelineStats s = impl_->stats;
   s.state = impl_->state;
   std::vector<double> latencies(impl_->latencies_ms.begin(), impl_->latencies_ms.end());
-  s.latency_p50_ms = Percentile(latencies, 0.50);
-  s.latency_p90_ms = Percentile(latencies, 0.90);
-  s.latency_p99_ms = Percentile(latencies, 0.99);
-  s.latency_max_ms = latencies.empty() ? 0.0 : *std::max_element(latencies.begin(), latencies.end());
+  // The client's statistic too (percentile.h); 0 before the first frame, as before.
+  if (!latencies.empty()) {
+    s.latency_p50_ms = Percentile(std::span<double>(latencies), 50.0);
+    s.latency_p90_ms = Percentile(std::span<double>(latencies), 90.0);
+    s.latency_p99_ms = Percentile(std::span<double>(latencies), 99.0);
+    s.latency_max_ms = Percentile(std::span<double>(latencies), 100.0);
+  }
   if (s.frames_reconstructed > 0) {
     s.reconstruct_ms_mean = impl_->reconstruct_ms_total / s.frames_reconstructed;
   }

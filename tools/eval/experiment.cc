@@ -12,6 +12,7 @@
 #include "absl/strings/str_join.h"
 #include "tools/eval/baselines.h"
 #include "transient/reconstruct/kernels.h"
+#include "transient/reconstruct/percentile.h"
 #include "transient/reconstruct/range.h"
 
 namespace transient::eval {
@@ -342,7 +343,7 @@ ResultRow Evaluate(TruthKind truth, int k, MethodKind method, int order, bool no
     double sum = 0.0;
     for (double e : emd_ns) sum += e;
     row.emd_mean_ns = sum / emd_ns.size();
-    row.emd_median_ns = Quantile(emd_ns, 0.5);
+    row.emd_median_ns = Percentile(std::span<double>(emd_ns), 50.0);
   }
   row.range_error_mm = SummarizeErrors(errors_mm);
   row.time_per_pixel_us = seconds / std::max(row.trials, 1) * 1e6;

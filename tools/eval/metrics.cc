@@ -7,6 +7,8 @@
 #include <limits>
 #include <utility>
 
+#include "transient/reconstruct/percentile.h"
+
 namespace transient::eval {
 
 double CircleEmd(const CircleCumulative& a, const CircleCumulative& b, double period_s,
@@ -52,16 +54,6 @@ double WrapSymmetric(double x, double period) {
   return x - period * std::floor(x / period + 0.5);
 }
 
-double Quantile(std::vector<double>& values, double q) {
-  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
-  std::sort(values.begin(), values.end());
-  const double position = q * static_cast<double>(values.size() - 1);
-  const size_t below = static_cast<size_t>(std::floor(position));
-  const size_t above = std::min(below + 1, values.size() - 1);
-  const double fraction = position - static_cast<double>(below);
-  return values[below] + fraction * (values[above] - values[below]);
-}
-
 ErrorSummary SummarizeErrors(std::span<const double> errors) {
   ErrorSummary summary;
   summary.count = static_cast<int>(errors.size());
@@ -80,7 +72,7 @@ ErrorSummary SummarizeErrors(std::span<const double> errors) {
   }
   summary.mean = sum / errors.size();
   summary.rmse = std::sqrt(squares / errors.size());
-  summary.p95_abs = Quantile(magnitudes, 0.95);
+  summary.p95_abs = Percentile(std::span<double>(magnitudes), 95.0);
   return summary;
 }
 

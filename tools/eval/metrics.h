@@ -40,8 +40,5 @@ struct ErrorSummary {
 };
 ErrorSummary SummarizeErrors(std::span<const double> errors);
 
-// The q-quantile (0 <= q <= 1) of `values` with linear interpolation between order statistics
-// (Hyndman & Fan type 7); NaN for none. Reorders `values`.
-double Quantile(std::vector<double>& values, double q);
 
 }  // namespace transient::eval

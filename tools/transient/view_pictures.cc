@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "transient/reconstruct/percentile.h"
 
 namespace transient::tools {
 namespace {
@@ -57,11 +58,7 @@ double Quantile(std::vector<float>& samples, double q) {
   const auto end = std::remove_if(samples.begin(), samples.end(),
                                   [](float v) { return !std::isfinite(v); });
   samples.erase(end, samples.end());
-  if (samples.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const size_t rank = static_cast<size_t>(std::floor(std::clamp(q, 0.0, 1.0) *
-                                                     static_cast<double>(samples.size() - 1)));
-  std::nth_element(samples.begin(), samples.begin() + rank, samples.end());
-  return samples[rank];
+  return Percentile(std::span<float>(samples), 100.0 * q);
 }
 
 void ScaleSampler::Add(std::span<const float> values) {

@@ -27,8 +27,8 @@ struct ViewScales {
   double range_max_m = 1.0;
 };
 
-// The q-quantile (0 <= q <= 1) of the finite values among `samples` (reordered), by
-// nth_element on the rank floor(q * (n - 1)); NaN when there is none.
+// The q-quantile (0 <= q <= 1) of the finite values among `samples` (reordered): the
+// project's percentile (percentile.h) at 100 q; NaN when there is none.
 double Quantile(std::vector<float>& samples, double q);
 
 // Collects every stride-th finite value (a deterministic subsample, so that scales over
