@@ -19,6 +19,7 @@
 #include "transient/drivers/source_registry.h"
 #include "transient/reconstruct/cycle_assembler.h"
 #include "transient/reconstruct/demodulation.h"
+#include "transient/reconstruct/frame_pipeline.h"
 #include "transient/reconstruct/percentile.h"
 #include "transient/reconstruct/smoothing.h"
 
@@ -225,7 +226,7 @@ struct Pipeline::Impl {
   struct ReconstructState {
     std::shared_ptr<const AcquisitionSchedule> schedule;
     uint64_t config_version = ~uint64_t{0};
-    std::optional<Demodulator> demodulator;
+    std::optional<FramePipeline> pipeline;
     MomentImage moments;
     DemodulationReport report;
     uint64_t sequence = 0;
@@ -635,30 +636,33 @@ void Pipeline::Impl::Reconstruct(CycleItem& item) {
   const absl::Time begin = absl::Now();
   const ImageGeometry geometry = item.frames.front().geometry;
   if (st.schedule != item.schedule || st.config_version != version) {
-    absl::StatusOr<Demodulator> created =
-        Demodulator::Create(*item.schedule, geometry, DemodulationOptions{.video = cfg.video});
+    absl::StatusOr<FramePipeline> created = FramePipeline::Create(
+        *item.schedule, geometry,
+        MeasureOptions{.calibration = table,
+                       .smoothing_sigma_px = cfg.smoothing_sigma_px,
+                       .video = cfg.video},
+        SolveOptions{.bias_epsilon = cfg.bias_epsilon,
+                     .zeroth = ZerothMomentOf(item.schedule->options())});
     if (!created.ok()) {
       Log(absl::StrCat("reconstruction: ", created.status().message()));
       absl::MutexLock lock(&mu);
       ++stats.cycles_refused;
       return;
     }
-    st.demodulator.emplace(*std::move(created));
+    st.pipeline.emplace(*std::move(created));
     st.schedule = item.schedule;
     st.config_version = version;
   }
-  absl::Status status = st.demodulator->Demodulate(item.frames, &st.moments, &st.report);
-  if (status.ok() && table != nullptr) status = ApplyCalibration(*table, &st.moments);
-  if (status.ok()) status = GaussianSmooth(cfg.smoothing_sigma_px, &st.moments);
+  absl::Status status = st.pipeline->measure_options().calibration == table
+                            ? absl::OkStatus()
+                            : st.pipeline->SetCalibration(table);  // Calibrate applied a new one
+  if (status.ok()) status = st.pipeline->Measure(item.frames, &st.moments, &st.report);
   if (!status.ok()) {
     Log(absl::StrCat("reconstruction: cycle refused: ", status.message()));
     absl::MutexLock lock(&mu);
     ++stats.cycles_refused;
     return;
   }
-  const ZerothMoment zeroth = item.schedule->options().zeroth == ZerothScheme::kEstimated
-                                  ? ZerothMoment::kEstimate
-                                  : ZerothMoment::kMeasured;
   std::shared_ptr<SolvedImage> solved;
   for (const auto& candidate : st.solved_pool) {
     // Only the pool holds it: no published frame (nor Latest()) can reach it any more.
@@ -673,8 +677,7 @@ void Pipeline::Impl::Reconstruct(CycleItem& item) {
     solved = std::make_shared<SolvedImage>();
     if (st.solved_pool.size() < 8) st.solved_pool.push_back(solved);
   }
-  Solve(st.moments, SolveOptions{.bias_epsilon = cfg.bias_epsilon, .zeroth = zeroth},
-        solved.get());
+  st.pipeline->Solve(st.moments, solved.get());
   const ProductOptions product_options{
       .base_frequency_hz = item.schedule->options().base_frequency_hz,
       .range_method = cfg.range_method,

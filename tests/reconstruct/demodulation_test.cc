@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/reconstruct/synthetic_cycles.h"
 #include "tests/support/status_matchers.h"
 
 namespace transient {
@@ -25,93 +26,12 @@ constexpr double kPi = std::numbers::pi;
 // Raw values are ~60 sensor units in float32 (ulp ~4e-6); a phasor is a few differences of them
 // divided by |g| >= 0.6.
 constexpr double kFloatTolerance = 1e-4;
-// Phase of the light the low-frequency proxy sees (returns at a few metres at 900 kHz give
-// ~0.1 rad); the modulus must not care.
-constexpr double kProxyPhase = 0.3;
 
-AcquisitionSchedule MakeSchedule(SamplingScheme sampling, int phase_steps, ZerothScheme zeroth,
-                                 int takes, int order = 3) {
-  ScheduleOptions options;
-  options.order = order;
-  options.sampling = sampling;
-  options.phase_steps = phase_steps;
-  options.zeroth = zeroth;
-  options.takes = takes;
-  absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(options);
-  EXPECT_THAT(schedule.status(), IsOk());
-  return *std::move(schedule);
-}
-
-// Known moments and offsets of a synthetic scene: c_0 in [5, 10], |c_j| <= 0.9 c_0 with random
-// phases, offsets (ambient plus dark level) in [20, 50].
-struct Scene {
-  ImageGeometry geometry;
-  int order = 0;
-  std::vector<double> c0, offset;
-  std::vector<std::vector<Complex>> c;  // c[j][p], j = 0..m (c[0] unused)
-};
-
-Scene RandomScene(ImageGeometry geometry, int order, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  Scene s;
-  s.geometry = geometry;
-  s.order = order;
-  const int64_t n = geometry.pixel_count();
-  s.c.assign(static_cast<size_t>(order + 1), std::vector<Complex>(static_cast<size_t>(n)));
-  for (int64_t p = 0; p < n; ++p) {
-    s.c0.push_back(5.0 + 5.0 * u(rng));
-    s.offset.push_back(20.0 + 30.0 * u(rng));
-    for (int j = 1; j <= order; ++j) {
-      s.c[j][p] = std::polar(0.9 * u(rng) * s.c0.back(), 2.0 * kPi * u(rng));
-    }
-  }
-  return s;
-}
-
-// One raw frame of `config` by the measurement convention (demodulation.h), evaluated through
-// the sub-exposures rather than through nominal_gain(): M(beta) = offset +
-// sum_k w_k Re(exp(-i (beta + theta_k)) c_j); unmodulated pair: offset + c_0 and offset.
-RawFrame Synthesize(const AcquisitionSchedule& schedule, const Scene& scene,
-                    const ExposureConfig& config, int64_t cycle, uint64_t sequence, double sigma,
-                    std::mt19937_64& rng, double scale = 1.0, double phase_slip = 0.0) {
-  std::normal_distribution<double> noise(0.0, 1.0);
-  RawFrame frame;
-  frame.config = config;
-  frame.config.cycle = cycle;
-  frame.config.sequence = sequence;
-  frame.geometry = scene.geometry;
-  const int64_t n = scene.geometry.pixel_count();
-  frame.pixels.resize(static_cast<size_t>(n));
-  // The exposure is linear in c: sum the sub-exposures' phasors once per frame.
-  Complex response{0.0, 0.0};
-  for (const SubExposure& s : schedule.sub_exposures()) {
-    response +=
-        s.weight * std::polar(1.0, -(config.phase_shift_rad + phase_slip + s.phase_shift_rad));
-  }
-  for (int64_t p = 0; p < n; ++p) {
-    double value = scene.offset[p];
-    if (config.frequency_hz == 0.0) {
-      if (config.illumination) value += scene.c0[p];
-    } else {
-      const Complex c =
-          config.harmonic == 0 ? std::polar(scene.c0[p], kProxyPhase) : scene.c[config.harmonic][p];
-      value += (response * c).real();
-    }
-    frame.pixels[p] = static_cast<float>(scale * value + sigma * noise(rng));
-  }
-  return frame;
-}
-
-std::vector<RawFrame> SynthesizeCycle(const AcquisitionSchedule& schedule, const Scene& scene,
-                                      int64_t cycle, double sigma, std::mt19937_64& rng) {
-  std::vector<RawFrame> frames;
-  const int n = schedule.raw_frames_per_frame();
-  for (int i = 0; i < n; ++i) {
-    frames.push_back(Synthesize(schedule, scene, schedule.exposures()[i], cycle,
-                                static_cast<uint64_t>(cycle * n + i), sigma, rng));
-  }
-  return frames;
-}
+using testing::MakeSchedule;
+using testing::RandomScene;
+using testing::Scene;
+using testing::Synthesize;
+using testing::SynthesizeCycle;
 
 Demodulator MakeDemodulator(const AcquisitionSchedule& schedule, ImageGeometry geometry,
                             const DemodulationOptions& options = {}) {

@@ -26,6 +26,7 @@
 #include "transient/reconstruct/calibration.h"
 #include "transient/reconstruct/cycle_assembler.h"
 #include "transient/reconstruct/demodulation.h"
+#include "transient/reconstruct/frame_pipeline.h"
 #include "transient/reconstruct/smoothing.h"
 
 namespace transient::tools {
@@ -249,14 +250,14 @@ absl::StatusOr<MomentsSummary> RunMoments(const MomentsArgs& args, const Command
   const ImageGeometry geometry = capture->camera().geometry;
 
   MomentsSummary summary{.output_path = args.output_path};
-  std::optional<CalibrationTable> calibration;
+  std::shared_ptr<const CalibrationTable> calibration;
   if (!args.calibration_path.empty()) {
     absl::StatusOr<CalibrationTable> read = ReadCalibrationFile(args.calibration_path);
     if (!read.ok()) return read.status();
-    calibration = *std::move(read);
+    calibration = std::make_shared<const CalibrationTable>(*std::move(read));
     summary.calibration = args.calibration_path;
   } else if (capture->calibration().has_value() && !args.uncalibrated) {
-    calibration = capture->calibration();
+    calibration = std::make_shared<const CalibrationTable>(*capture->calibration());
     summary.calibration = absl::StrCat(args.capture_path, ": /calibration");
   } else if (!args.uncalibrated) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -265,13 +266,18 @@ absl::StatusOr<MomentsSummary> RunMoments(const MomentsArgs& args, const Command
   } else {
     summary.calibration = "none";
   }
-  if (calibration.has_value()) {
-    if (absl::Status status = CheckCalibrationMatches(*calibration, schedule.options(), geometry);
-        !status.ok()) {
-      return Prefixed(absl::StrCat(summary.calibration, " does not fit ", args.capture_path),
-                      status);
-    }
+  // Measures only (reconstruct solves): the solve options are the defaults, never used here.
+  absl::StatusOr<FramePipeline> pipeline = FramePipeline::Create(
+      schedule, geometry,
+      MeasureOptions{.calibration = calibration,
+                     .smoothing_sigma_px = args.smoothing_sigma_px,
+                     .video = args.video},
+      SolveOptions{});
+  if (absl::IsFailedPrecondition(pipeline.status())) {
+    return Prefixed(absl::StrCat(summary.calibration, " does not fit ", args.capture_path),
+                    pipeline.status());
   }
+  if (!pipeline.ok()) return pipeline.status();
 
   absl::StatusOr<TemporaryOutput> output = TemporaryOutput::Prepare(args.output_path);
   if (!output.ok()) return output.status();
@@ -285,9 +291,6 @@ absl::StatusOr<MomentsSummary> RunMoments(const MomentsArgs& args, const Command
   if (!writer.ok()) return writer.status();
   absl::StatusOr<CycleAssembler> assembler = CycleAssembler::Create(schedule, geometry);
   if (!assembler.ok()) return assembler.status();
-  absl::StatusOr<Demodulator> demodulator =
-      Demodulator::Create(schedule, geometry, DemodulationOptions{.video = args.video});
-  if (!demodulator.ok()) return demodulator.status();
 
   auto problem = [&](const absl::Status& status) {
     if (summary.problems.size() < kMaxListedProblems) {
@@ -317,7 +320,7 @@ absl::StatusOr<MomentsSummary> RunMoments(const MomentsArgs& args, const Command
     std::vector<RawFrame> cycle = assembler->TakeCycle();
     double cycle_start_s = timestamp_s;
     for (const RawFrame& f : cycle) cycle_start_s = std::min(cycle_start_s, f.config.timestamp_s);
-    if (absl::Status status = demodulator->Demodulate(cycle, &moments, &report); !status.ok()) {
+    if (absl::Status status = pipeline->Measure(cycle, &moments, &report); !status.ok()) {
       ++summary.cycles_dropped;
       problem(status);
       continue;
@@ -325,14 +328,6 @@ absl::StatusOr<MomentsSummary> RunMoments(const MomentsArgs& args, const Command
     summary.raw_frames_rejected += static_cast<int64_t>(report.rejected.size());
     summary.filled_pixels += report.filled_pixels;
     summary.saturated_pixels += report.saturated_pixels;
-    if (calibration.has_value()) {
-      if (absl::Status status = ApplyCalibration(*calibration, &moments); !status.ok()) {
-        return status;
-      }
-    }
-    if (absl::Status status = GaussianSmooth(args.smoothing_sigma_px, &moments); !status.ok()) {
-      return status;
-    }
     if (absl::Status status = writer->Append(moments, cycle_start_s); !status.ok()) return status;
     ++summary.frames_written;
     Progress(hooks, i + 1, capture->frames());
