@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "gtest/gtest.h"
+#include "tests/support/wait.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
 #include "transient/v1/transient.grpc.pb.h"
@@ -60,20 +61,16 @@ class Daemon {
     return stats;
   }
 
-  // Waits (at most 10 s) until `condition` holds; false if it never did.
-  bool WaitFor(const std::function<bool()>& condition) {
-    const absl::Time until = absl::Now() + absl::Seconds(10);
-    while (!condition()) {
-      if (absl::Now() >= until) return false;
-      absl::SleepFor(absl::Milliseconds(5));
-    }
-    return true;
+  // Waits until `condition` holds (tests/support/wait.h); false if it never did.
+  bool WaitFor(const std::function<bool()>& condition, absl::Duration timeout = absl::Seconds(10)) {
+    return ::transient::testing::WaitUntil(condition, timeout);
   }
   bool WaitForFirstFrame() {
     return WaitFor([this] { return pipeline_->Latest() != nullptr; });
   }
-  bool WaitForSubscribers(size_t count) {
-    return WaitFor([this, count] { return pipeline_->Stats().subscribers.size() >= count; });
+  bool WaitForSubscribers(size_t count, absl::Duration timeout = absl::Seconds(10)) {
+    return WaitFor([this, count] { return pipeline_->Stats().subscribers.size() >= count; },
+                   timeout);
   }
 
  private:

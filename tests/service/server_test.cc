@@ -1,8 +1,6 @@
 // transientd's gRPC service on a loopback port chosen at run time, with real clients: products,
 // bad requests, many subscribers, disconnects, a lost source, recording and replay.
 #include <grpcpp/grpcpp.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <atomic>
 #include <csignal>
@@ -16,6 +14,8 @@
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
+#include "tests/support/subprocess.h"
+#include "tests/support/wait.h"
 #include "transient/formats/capture_file.h"
 #include "transient/drivers/simulator.h"
 #include "transient/wire/grpc_status.h"
@@ -35,7 +35,12 @@ using ::testing::Gt;
 using ::testing::HasSubstr;
 using ::transient::testing::IsOk;
 using ::transient::testing::ScratchDirectory;
+using ::transient::testing::ChildProcess;
+using ::transient::testing::ProcessResult;
+using ::transient::testing::RunProcess;
 using ::transient::testing::StatusIs;
+using ::transient::testing::WaitForPortFile;
+using ::transient::testing::WaitUntil;
 
 constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 
@@ -149,9 +154,7 @@ TEST(Server, BadStreamRequestsAreInvalidArgumentWhileAnotherStreamGoesOn) {
     v1::Frame frame;
     while (!done && good->Read(&frame)) received += frame.images_size() > 0;
   });
-  const absl::Time first = absl::Now() + absl::Seconds(10);
-  while (received.load() == 0 && absl::Now() < first) absl::SleepFor(absl::Milliseconds(10));
-  EXPECT_GT(received.load(), 0);
+  EXPECT_TRUE(WaitUntil([&] { return received.load() > 0; }));
 
   auto expect_invalid = [&](v1::StreamRequest request, const std::string& field) {
     std::vector<v1::Frame> frames;
@@ -201,9 +204,7 @@ TEST(Server, BadStreamRequestsAreInvalidArgumentWhileAnotherStreamGoesOn) {
 
   // The good stream kept receiving through all of that, and goes on.
   const int before = received.load();
-  const absl::Time until = absl::Now() + absl::Seconds(10);
-  while (received.load() < before + 3 && absl::Now() < until) absl::SleepFor(absl::Milliseconds(20));
-  EXPECT_GE(received.load(), before + 3);
+  EXPECT_TRUE(WaitUntil([&] { return received.load() >= before + 3; })) << received.load();
   done = true;
   good_context.TryCancel();
   reader.join();
@@ -229,10 +230,7 @@ TEST(Server, MemoryLimitsOfStreamsAreRefusedNamingTheLimit) {
     if (i == 1) big.mutable_slices()->add_bin_indices(0);
     contexts.push_back(std::make_unique<grpc::ClientContext>());
     streams.push_back(stub->StreamFrames(contexts.back().get(), big));
-    const absl::Time until = absl::Now() + absl::Seconds(20);
-    while (daemon.Stats().subscribers_size() <= i && absl::Now() < until) {
-      absl::SleepFor(absl::Milliseconds(20));
-    }
+    ASSERT_TRUE(daemon.WaitForSubscribers(i + 1, absl::Seconds(20)));
     ASSERT_EQ(daemon.Stats().subscribers_size(), i + 1);
   }
   v1::StreamRequest third = Request({v1::SLICES});
@@ -245,10 +243,7 @@ TEST(Server, MemoryLimitsOfStreamsAreRefusedNamingTheLimit) {
   big.mutable_slices()->clear_bin_indices();
   grpc::ClientContext same_context;
   auto same = stub->StreamFrames(&same_context, big);
-  const absl::Time until = absl::Now() + absl::Seconds(20);
-  while (daemon.Stats().subscribers_size() < 3 && absl::Now() < until) {
-    absl::SleepFor(absl::Milliseconds(20));
-  }
+  EXPECT_TRUE(daemon.WaitForSubscribers(3, absl::Seconds(20)));
   EXPECT_EQ(daemon.Stats().subscribers_size(), 3);
   same_context.TryCancel();
   (void)same->Finish();
@@ -265,10 +260,7 @@ TEST(Server, StreamsBeyondTheLimitAreRefusedAsResourceExhausted) {
     contexts.push_back(std::make_unique<grpc::ClientContext>());
     streams.push_back(stub->StreamFrames(contexts.back().get(), Request({v1::RANGE})));
   }
-  const absl::Time until = absl::Now() + absl::Seconds(30);
-  while (daemon.Stats().subscribers_size() < kMaxSubscribers && absl::Now() < until) {
-    absl::SleepFor(absl::Milliseconds(20));
-  }
+  ASSERT_TRUE(daemon.WaitForSubscribers(kMaxSubscribers, absl::Seconds(30)));
   ASSERT_EQ(daemon.Stats().subscribers_size(), kMaxSubscribers);
   std::vector<v1::Frame> frames;
   EXPECT_THAT(Receive(*stub, Request({v1::RANGE}), 1, &frames),
@@ -286,11 +278,7 @@ TEST(Server, ClientThatDisconnectsMidStreamIsForgottenAndOthersGoOn) {
   ASSERT_TRUE(reader->Read(&frame));
   leaving.TryCancel();
   (void)reader->Finish();
-  const absl::Time until = absl::Now() + absl::Seconds(5);
-  while (daemon.Stats().subscribers_size() > 0 && absl::Now() < until) {
-    absl::SleepFor(absl::Milliseconds(20));
-  }
-  EXPECT_EQ(daemon.Stats().subscribers_size(), 0);
+  EXPECT_TRUE(daemon.WaitFor([&] { return daemon.Stats().subscribers_size() == 0; }));
   std::vector<v1::Frame> frames;
   EXPECT_THAT(Receive(*daemon.Stub(), Request({v1::RANGE}), 3, &frames), IsOk());
   EXPECT_EQ(ImagesOf(frames), 3);
@@ -453,12 +441,10 @@ TEST(Server, EndOfAReplayEndsNewStreamsWithOutOfRange) {
   }
   Daemon daemon(absl::StrCat("replay:", path, "?pace=fast"));
   // The end is announced once both recorded frames have been reconstructed.
-  const absl::Time until = absl::Now() + absl::Seconds(10);
-  while ((daemon.pipeline().state() != SourceState::kEnded ||
-          daemon.Stats().frames_reconstructed() < 2) &&
-         absl::Now() < until) {
-    absl::SleepFor(absl::Milliseconds(10));
-  }
+  EXPECT_TRUE(daemon.WaitFor([&] {
+    return daemon.pipeline().state() == SourceState::kEnded &&
+           daemon.Stats().frames_reconstructed() >= 2;
+  }));
   std::vector<v1::Frame> frames;
   EXPECT_THAT(Receive(*daemon.Stub(), Request({v1::RANGE}), 1, &frames),
               StatusIs(absl::StatusCode::kOutOfRange, HasSubstr("has ended")));
@@ -636,16 +622,6 @@ TEST(Server, RecordingRequestsAreCheckedAndStopWithoutRecordingIsRefused) {
 }
 
 #ifdef TRANSIENTD_BINARY
-// Runs transientd with `args` (stderr captured), returns its exit status and what it printed.
-std::pair<int, std::string> RunTransientd(const std::string& args) {
-  const std::string command = absl::StrCat(TRANSIENTD_BINARY, " ", args, " 2>&1");
-  FILE* pipe = popen(command.c_str(), "r");
-  std::string output;
-  char buffer[4096];
-  while (pipe != nullptr && fgets(buffer, sizeof buffer, pipe) != nullptr) output += buffer;
-  const int status = pipe == nullptr ? -1 : pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, output};
-}
 
 TEST(TransientdBinary, BadOptionsExitTwoNamingTheProblem) {
   ScratchDirectory dir;
@@ -655,22 +631,26 @@ TEST(TransientdBinary, BadOptionsExitTwoNamingTheProblem) {
   std::ofstream(unknown) << "colour = red\n";
   const std::string range = dir.File("range.conf");
   std::ofstream(range) << "threshold = 3\n";
-  const std::vector<std::pair<std::string, std::string>> cases = {
-      {"--config " + config, "bad.conf:3: bias_epsilon = lots: expected a number"},
-      {"--config " + unknown, "unknown key 'colour'"},
-      {"--config " + range, "threshold = 3"},
-      {"--config " + dir.File("missing.conf"), "missing.conf: cannot be read"},
-      {"--source 'sim:nowhere' --uncalibrated", "nowhere"},
-      {"--source 'replay:" + dir.File("none.h5") + "'", "none.h5"},
-      {"--calibration " + dir.File("none.h5"), "none.h5"},
-      {"--uncalibrated --calibration x.h5", "exclude each other"},
-      {"--uncalibrated --source 'sim:mirrors?width=16&height=12' --listen 256.1.1.1:1",
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"--config", config}, "bad.conf:3: bias_epsilon = lots: expected a number"},
+      {{"--config", unknown}, "unknown key 'colour'"},
+      {{"--config", range}, "threshold = 3"},
+      {{"--config", dir.File("missing.conf")}, "missing.conf: cannot be read"},
+      {{"--source", "sim:nowhere", "--uncalibrated"}, "nowhere"},
+      {{"--source", "replay:" + dir.File("none.h5")}, "none.h5"},
+      {{"--source", "usb:0"}, "unknown source 'usb:0'"},
+      {{"--calibration", dir.File("none.h5")}, "none.h5"},
+      {{"--uncalibrated", "--calibration", "x.h5"}, "exclude each other"},
+      {{"--uncalibrated", "--source", "sim:mirrors?width=16&height=12", "--listen",
+        "256.1.1.1:1"},
        "cannot listen on 256.1.1.1:1"},
   };
   for (const auto& [args, message] : cases) {
-    const auto [status, output] = RunTransientd(args);
-    EXPECT_EQ(status, 2) << args << "\n" << output;
-    EXPECT_THAT(output, HasSubstr(message)) << args;
+    std::vector<std::string> argv = {TRANSIENTD_BINARY};
+    argv.insert(argv.end(), args.begin(), args.end());
+    const ProcessResult result = RunProcess(argv);
+    EXPECT_EQ(result.exit_code, 2) << args.front() << "\n" << result.err;
+    EXPECT_THAT(result.err, HasSubstr(message)) << args.front();
   }
 }
 
@@ -680,19 +660,11 @@ TEST(TransientdBinary, SigtermDuringARecordingClosesTheFileAndExitsZero) {
   ScratchDirectory dir;
   const std::string port_file = dir.File("port");
   const std::string capture = dir.File("capture.h5");
-  const pid_t child = fork();
-  if (child == 0) {
-    execl(TRANSIENTD_BINARY, TRANSIENTD_BINARY, "--source", "sim:mirrors?width=32&height=24",
-          "--listen", "127.0.0.1:0", "--port-file", port_file.c_str(), "--uncalibrated",
-          static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  int port = 0;
-  const absl::Time until = absl::Now() + absl::Seconds(30);
-  while (port == 0 && absl::Now() < until) {
-    std::ifstream(port_file) >> port;
-    if (port == 0) absl::SleepFor(absl::Milliseconds(20));
-  }
+  ChildProcess daemon({TRANSIENTD_BINARY, "--source", "sim:mirrors?width=32&height=24", "--listen",
+                       "127.0.0.1:0", "--port-file", port_file, "--uncalibrated"},
+                      dir.File("transientd.log"));
+  ASSERT_TRUE(daemon.started());
+  const int port = WaitForPortFile(port_file);
   ASSERT_GT(port, 0) << "transientd did not write its port";
   auto stub = Connect(port);
   {
@@ -703,20 +675,17 @@ TEST(TransientdBinary, SigtermDuringARecordingClosesTheFileAndExitsZero) {
     grpc::Status status = stub->StartRecording(&context, start, &out);
     ASSERT_TRUE(status.ok()) << status.error_message();
   }
-  absl::SleepFor(absl::Milliseconds(1500));  // past the first one-second flush
+  // Until the first flush (at most a second after the first frame) has made frames durable.
   uint64_t flushed = 0;
-  {
+  EXPECT_TRUE(WaitUntil([&] {
     grpc::ClientContext context;
     v1::Stats stats;
-    ASSERT_TRUE(stub->GetStats(&context, {}, &stats).ok());
+    if (!stub->GetStats(&context, {}, &stats).ok()) return false;
     flushed = stats.recording().flushed_frames();
-  }
-  EXPECT_GT(flushed, 0u);
-  ASSERT_EQ(kill(child, SIGTERM), 0);
-  int status = 0;
-  ASSERT_EQ(waitpid(child, &status, 0), child);
-  ASSERT_TRUE(WIFEXITED(status)) << "status " << status;
-  EXPECT_EQ(WEXITSTATUS(status), 0);
+    return flushed > 0;
+  }));
+  ASSERT_TRUE(daemon.Signal(SIGTERM));
+  EXPECT_EQ(daemon.Wait(), 0);
   absl::StatusOr<CaptureReader> reader = CaptureReader::Open(capture);
   ASSERT_THAT(reader.status(), IsOk());
   EXPECT_GE(static_cast<uint64_t>(reader->frames()), flushed);

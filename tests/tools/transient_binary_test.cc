@@ -2,7 +2,6 @@
 // stderr, the summary on stdout.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <fstream>
 #include <iterator>
@@ -13,6 +12,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "tests/support/scratch_directory.h"
+#include "tests/support/subprocess.h"
 #include "tests/formats/test_files.h"
 
 namespace transient::tools {
@@ -26,39 +26,17 @@ using ::transient::testing::ScratchDirectory;
 using ::testing::SizeIs;
 using ::testing::StartsWith;
 
-struct Result {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string Quote(const std::string& text) {
-  return absl::StrCat("'", absl::StrJoin(absl::StrSplit(text, '\''), "'\\''"), "'");
-}
-
-std::string Slurp(const std::string& path) {
-  std::ifstream stream(path);
-  return std::string(std::istreambuf_iterator<char>(stream), {});
-}
+using Result = ::transient::testing::ProcessResult;
 
 std::vector<std::string> Lines(const std::string& text) {
   return absl::StrSplit(text, '\n', absl::SkipEmpty());
 }
 
-// Runs TRANSIENT_BINARY with `args`; stdout and stderr go to files outside `dir`'s listing.
-Result Run(const ScratchDirectory& dir, const ScratchDirectory& logs,
-           const std::vector<std::string>& args) {
-  std::string command = Quote(TRANSIENT_BINARY);
-  for (const std::string& arg : args) absl::StrAppend(&command, " ", Quote(arg));
-  absl::StrAppend(&command, " >", Quote(logs.File("stdout")), " 2>", Quote(logs.File("stderr")),
-                  " </dev/null");
-  const int status = std::system(command.c_str());
-  Result result;
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  result.out = Slurp(logs.File("stdout"));
-  result.err = Slurp(logs.File("stderr"));
-  (void)dir;
-  return result;
+// Runs TRANSIENT_BINARY with `args` (tests/support/subprocess.h).
+Result Run(const std::vector<std::string>& args) {
+  std::vector<std::string> argv = {TRANSIENT_BINARY};
+  argv.insert(argv.end(), args.begin(), args.end());
+  return ::transient::testing::RunProcess(argv);
 }
 
 class TransientBinary : public ::testing::Test {
@@ -66,10 +44,9 @@ class TransientBinary : public ::testing::Test {
   void SetUp() override { testing::WriteSmallMomentFile(input()); }
   std::string input() const { return dir_.File("in.h5"); }
   std::string output() const { return dir_.File("out.h5"); }
-  Result Run(const std::vector<std::string>& args) const { return tools::Run(dir_, logs_, args); }
+  Result Run(const std::vector<std::string>& args) const { return tools::Run(args); }
 
   ScratchDirectory dir_;
-  ScratchDirectory logs_;
 };
 
 TEST_F(TransientBinary, GoodFileExitsWithZeroAndPrintsOneSummaryLine) {

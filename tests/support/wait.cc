@@ -1,0 +1,17 @@
+// Polling with a deadline.
+#include "tests/support/wait.h"
+
+#include "absl/time/clock.h"
+
+namespace transient::testing {
+
+bool WaitUntil(const std::function<bool()>& condition, absl::Duration timeout) {
+  const absl::Time until = absl::Now() + timeout;
+  while (!condition()) {
+    if (absl::Now() >= until) return false;
+    absl::SleepFor(absl::Milliseconds(5));
+  }
+  return true;
+}
+
+}  // namespace transient::testing
