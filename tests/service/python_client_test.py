@@ -3,28 +3,26 @@
 
     python_client_test.py CHECK --transientd PATH --client PATH --stubs DIR --workdir DIR
 
-CHECK `client`: tools/python/transient_client.py saves a plausible depth image, reports an RPC
-error (unknown product) with its code and exit 1, and an unreachable daemon with exit 2.
+CHECK `client`: tools/python/transient_client.py (a thin user of the transient package) saves a
+plausible depth image, also from 16UC1 millimetres, reports an RPC error (unknown product) with
+its code and exit 1, and an unreachable daemon with exit 2.
 CHECK `standard_services`: health checking and server reflection answer raw-bytes requests.
 Both start transientd on a free port with a small simulated sensor and stop it with SIGTERM,
-which must end it with status 0 within 10 s.
+which must end it with status 0 within 10 s (tests/python/transientd_fixture.py).
 """
 
 import argparse
 import os
 import shutil
-import signal
-import socket
 import subprocess
 import sys
-import time
 
 import numpy as np
 
-SOURCE = "sim:mirrors?width=48&height=36&pace=fast"
-WIDTH, HEIGHT = 48, 36
-PORT_FILE_TIMEOUT_S = 30.0
-STOP_TIMEOUT_S = 10.0
+# The daemon fixture shared with the tests of the transient package.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
+from transientd_fixture import HEIGHT, WIDTH, Daemon, closed_address  # noqa: E402
+
 RPC_TIMEOUT_S = 10.0
 # The mirrors scene lies between these depths; a wrong unit (mm) or garbage falls outside.
 PLAUSIBLE_DEPTH_M = (0.5, 10.0)
@@ -32,60 +30,6 @@ MIN_FINITE_FRACTION = 0.5
 
 # Health: HealthCheckResponse{status: SERVING} is field 1 (varint) = 1.
 SERVING = b"\x08\x01"
-
-
-class Daemon:
-    """transientd on 127.0.0.1 with a port chosen at run time, its log in workdir."""
-
-    def __init__(self, binary, workdir):
-        self.port_file = os.path.join(workdir, "port")
-        self.log_path = os.path.join(workdir, "transientd.log")
-        self.log = open(self.log_path, "wb")
-        self.process = subprocess.Popen(
-            [binary, "--listen", "127.0.0.1:0", "--port-file", self.port_file, "--source",
-             SOURCE], stdout=self.log, stderr=subprocess.STDOUT)
-        self.address = None
-
-    def wait_until_serving(self):
-        self.address = f"127.0.0.1:{self._wait_for_port()}"
-
-    def log_text(self):
-        self.log.flush()
-        with open(self.log_path, "rb") as f:
-            return f.read().decode(errors="replace")
-
-    def _wait_for_port(self):
-        deadline = time.monotonic() + PORT_FILE_TIMEOUT_S
-        while time.monotonic() < deadline:
-            if self.process.poll() is not None:
-                fail(f"transientd exited with {self.process.returncode} before serving:\n"
-                     f"{self.log_text()}")
-            try:
-                with open(self.port_file) as f:
-                    text = f.read().strip()
-                if text:
-                    return int(text)
-            except FileNotFoundError:
-                pass
-            time.sleep(0.05)
-        fail(f"transientd wrote no port file in {PORT_FILE_TIMEOUT_S:g} s:\n{self.log_text()}")
-
-    def stop(self):
-        """SIGTERM; the daemon must exit 0 within STOP_TIMEOUT_S."""
-        self.process.send_signal(signal.SIGTERM)
-        try:
-            status = self.process.wait(timeout=STOP_TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            fail(f"transientd still running {STOP_TIMEOUT_S:g} s after SIGTERM:\n{self.log_text()}")
-        if status != 0:
-            fail(f"transientd exited with {status} after SIGTERM:\n{self.log_text()}")
-        print("ok: SIGTERM stopped transientd with status 0")
-
-    def kill(self):
-        if self.process.poll() is None:
-            self.process.kill()
-            self.process.wait()
-        self.log.close()
 
 
 def fail(message):
@@ -145,9 +89,7 @@ def check_client(args, daemon):
     print("ok: unknown product -> INVALID_ARGUMENT, exit 1")
 
     # Nobody listens on a port just released: exit 2 naming the address, after about 5 s.
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        closed = f"127.0.0.1:{s.getsockname()[1]}"
+    closed = closed_address()
     result = run_client(args, closed, "--frames", "1")
     if result.returncode != 2 or closed not in result.stderr:
         fail(f"client against {closed} exited with {result.returncode}, expected 2 naming it")
@@ -198,6 +140,7 @@ def main():
         else:
             check_standard_services(args, daemon)
         daemon.stop()
+        print("ok: SIGTERM stopped transientd with status 0")
     finally:
         daemon.kill()
     print("PASS")
