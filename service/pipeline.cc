@@ -16,6 +16,7 @@
 #include "absl/strings/str_format.h"
 #include "transient/drivers/calibration_capture.h"
 #include "transient/formats/calibration_file.h"
+#include "cycle_queue.h"
 #include "transient/drivers/source_registry.h"
 #include "transient/reconstruct/cycle_assembler.h"
 #include "transient/reconstruct/demodulation.h"
@@ -28,7 +29,6 @@ namespace {
 
 constexpr absl::Duration kNextTimeout = absl::Milliseconds(100);
 constexpr size_t kLatencyWindow = 1024;
-constexpr int kMaxTakes = 64;
 constexpr uint64_t kMaxRecordingFrames = uint64_t{1} << 32;
 
 // HDF5 (Debian's build) is not thread-safe: every HDF5 call of the daemon (replay reads,
@@ -76,114 +76,14 @@ class CalibrationSource final : public CaptureSource {
   std::function<bool()> cancelled_;
 };
 
-// One item of the queue between the source and the reconstruction thread: a complete capture
-// cycle, or a state change (kept in order with the frames).
-struct CycleItem {
-  std::vector<RawFrame> frames;
-  std::shared_ptr<const AcquisitionSchedule> schedule;
-  absl::Time arrival;
-  bool announcement = false;
-  SourceState state = SourceState::kStreaming;
-};
-
 }  // namespace
-
-const char* SourceStateName(SourceState state) {
-  switch (state) {
-    case SourceState::kStreaming: return "streaming";
-    case SourceState::kReconnecting: return "reconnecting";
-    case SourceState::kEnded: return "ended";
-  }
-  return "unknown";
-}
-
-absl::Status ReconstructionConfig::Validate() const {
-  const SolveOptions solve{.bias_epsilon = bias_epsilon};
-  if (absl::Status status = solve.Validate(); !status.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat("bias_epsilon: ", status.message()));
-  }
-  if (!(threshold > 0.0 && threshold < 1.0)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("threshold = ", threshold, ": expected 0 < threshold < 1"));
-  }
-  if (absl::Status status = ValidateSmoothingSigma(smoothing_sigma_px); !status.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat("smoothing_sigma_px: ", status.message()));
-  }
-  if (takes < 1 || takes > kMaxTakes) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("takes = ", takes, ": expected 1..", kMaxTakes));
-  }
-  return absl::OkStatus();
-}
-
-// ---------------------------------------------------------------------------------------------
-// Subscription
-
-Subscription::Subscription(uint64_t id, std::string peer, ProductRequest request,
-                           int queue_frames)
-    : id_(id),
-      peer_(std::move(peer)),
-      request_(std::move(request)),
-      capacity_(static_cast<size_t>(std::max(1, queue_frames))) {}
-
-void Subscription::Push(std::shared_ptr<const PublishedFrame> frame) {
-  absl::MutexLock lock(&mu_);
-  if (closed_) return;
-  // Frames drop oldest-first; announcements only when the queue holds nothing else (the newest
-  // state, pushed last, always stays).
-  while (queue_.size() >= capacity_) {
-    auto oldest = std::find_if(queue_.begin(), queue_.end(),
-                               [](const auto& f) { return !f->announcement; });
-    if (oldest == queue_.end()) {
-      queue_.pop_front();
-      continue;
-    }
-    queue_.erase(oldest);
-    ++missed_since_last_;
-    ++missed_total_;
-  }
-  queue_.push_back(std::move(frame));
-}
-
-std::shared_ptr<const PublishedFrame> Subscription::Next(absl::Duration timeout,
-                                                         uint64_t* missed) {
-  absl::MutexLock lock(&mu_);
-  auto ready = [this]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) { return closed_ || !queue_.empty(); };
-  mu_.AwaitWithTimeout(absl::Condition(&ready), timeout);
-  if (queue_.empty()) return nullptr;
-  std::shared_ptr<const PublishedFrame> frame = std::move(queue_.front());
-  queue_.pop_front();
-  *missed = missed_since_last_;
-  missed_since_last_ = 0;
-  if (!frame->announcement) ++delivered_;
-  return frame;
-}
-
-void Subscription::Close() {
-  absl::MutexLock lock(&mu_);
-  closed_ = true;
-}
-
-bool Subscription::closed() const {
-  absl::MutexLock lock(&mu_);
-  return closed_;
-}
-
-uint64_t Subscription::frames_delivered() const {
-  absl::MutexLock lock(&mu_);
-  return delivered_;
-}
-
-uint64_t Subscription::frames_missed() const {
-  absl::MutexLock lock(&mu_);
-  return missed_total_;
-}
 
 // ---------------------------------------------------------------------------------------------
 // Pipeline internals
 
 struct Pipeline::Impl {
-  explicit Impl(PipelineOptions o) : options(std::move(o)) {}
+  explicit Impl(PipelineOptions o)
+      : options(std::move(o)), cycle_queue(options.cycle_queue_frames) {}
 
   void Log(const std::string& line) {
     if (options.log) options.log(line);
@@ -210,7 +110,6 @@ struct Pipeline::Impl {
   std::atomic<bool> stopping{false};
   std::thread source_thread, reconstruct_thread;
   std::atomic<bool> started{false};
-  bool block_when_full = false;  // a fast replay: never drop a recorded cycle
 
   // Source, assembler and recorder: source thread, under Hdf5Mutex().
   std::unique_ptr<CaptureSource> source;
@@ -267,9 +166,7 @@ struct Pipeline::Impl {
   std::shared_ptr<PendingRecording> pending_recording ABSL_GUARDED_BY(mu);
   bool stop_recording_requested ABSL_GUARDED_BY(mu) = false;
 
-  // The queue between the threads.
-  absl::Mutex queue_mu;
-  std::deque<CycleItem> cycles ABSL_GUARDED_BY(queue_mu);
+  CycleQueue cycle_queue;  // between the threads
 };
 
 bool Pipeline::Impl::OpenSourceLocked() {
@@ -340,39 +237,10 @@ void Pipeline::Impl::Announce(SourceState new_state) {
 }
 
 void Pipeline::Impl::PushCycle(CycleItem item) {
-  absl::MutexLock lock(&queue_mu);
-  // Announcements take no room (the bound is on frames) and are not dropped for frames; of a
-  // burst of them (a source failing again and again) only the latest 8 are kept.
-  if (item.announcement) {
-    constexpr size_t kMaxAnnouncements = 8;
-    while (std::count_if(cycles.begin(), cycles.end(),
-                         [](const CycleItem& c) { return c.announcement; }) >=
-           static_cast<ptrdiff_t>(kMaxAnnouncements)) {
-      cycles.erase(std::find_if(cycles.begin(), cycles.end(),
-                                [](const CycleItem& c) { return c.announcement; }));
-    }
-    cycles.push_back(std::move(item));
-    return;
+  if (const int dropped = cycle_queue.Push(std::move(item)); dropped > 0) {
+    absl::MutexLock lock(&mu);
+    stats.cycles_dropped += static_cast<uint64_t>(dropped);
   }
-  const size_t capacity = static_cast<size_t>(std::max(1, options.cycle_queue_frames));
-  auto frames_queued = [this]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(queue_mu) {
-    return static_cast<size_t>(std::count_if(cycles.begin(), cycles.end(),
-                                             [](const CycleItem& c) { return !c.announcement; }));
-  };
-  if (block_when_full) {
-    auto has_room = [this, capacity, &frames_queued]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(queue_mu) {
-      return stopping.load() || frames_queued() < capacity;
-    };
-    while (!has_room()) queue_mu.AwaitWithTimeout(absl::Condition(&has_room), kNextTimeout);
-  }
-  while (frames_queued() >= capacity) {
-    auto oldest = std::find_if(cycles.begin(), cycles.end(),
-                               [](const CycleItem& c) { return !c.announcement; });
-    cycles.erase(oldest);
-    absl::MutexLock stats_lock(&mu);
-    ++stats.cycles_dropped;
-  }
-  cycles.push_back(std::move(item));
 }
 
 // Serves StopRecording, and StartRecording with the frame that begins the file. Without a frame
@@ -712,19 +580,8 @@ void Pipeline::Impl::Reconstruct(CycleItem& item) {
 void Pipeline::Impl::ReconstructLoop() {
   absl::Time last_log = absl::Now();
   while (true) {
-    std::optional<CycleItem> item;
-    {
-      absl::MutexLock lock(&queue_mu);
-      auto ready = [this]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(queue_mu) {
-        return stopping.load() || !cycles.empty();
-      };
-      queue_mu.AwaitWithTimeout(absl::Condition(&ready), kNextTimeout);
-      if (stopping.load()) return;
-      if (!cycles.empty()) {
-        item.emplace(std::move(cycles.front()));
-        cycles.pop_front();
-      }
-    }
+    std::optional<CycleItem> item = cycle_queue.Pop(kNextTimeout);
+    if (stopping.load()) return;
     if (item.has_value()) {
       if (item->announcement) {
         auto frame = std::make_shared<PublishedFrame>();
@@ -791,7 +648,7 @@ absl::StatusOr<std::unique_ptr<Pipeline>> Pipeline::Create(PipelineOptions optio
     absl::MutexLock state_lock(&impl.mu);
     impl.schedule = std::make_shared<const AcquisitionSchedule>(schedule);
     impl.config.takes = schedule.options().takes;
-    impl.block_when_full = (*opened)->capabilities().waits_for_consumer;
+    impl.cycle_queue.set_wait_for_room((*opened)->capabilities().waits_for_consumer);
     // Opened again by the source thread (Start), so that reopening follows one path.
   }
   return pipeline;
@@ -805,6 +662,7 @@ void Pipeline::Start() {
 
 void Pipeline::Stop() {
   if (impl_->stopping.exchange(true)) return;
+  impl_->cycle_queue.Close();
   if (impl_->source_thread.joinable()) impl_->source_thread.join();
   if (impl_->reconstruct_thread.joinable()) impl_->reconstruct_thread.join();
   std::vector<std::shared_ptr<Subscription>> subscriptions;
@@ -937,10 +795,7 @@ absl::Status Pipeline::SetConfig(const ReconstructionConfig& config) {
   impl_->config = config;
   ++impl_->config_version;
   }
-  impl_->Log(absl::StrFormat(
-      "config: range %s, bias_epsilon %g, threshold %g, smoothing %g px, %d takes, video %s",
-      config.range_method == RangeMethod::kMese ? "mese" : "pisarenko", config.bias_epsilon,
-      config.threshold, config.smoothing_sigma_px, config.takes, config.video ? "on" : "off"));
+  impl_->Log(absl::StrCat("config: ", DescribeConfig(config)));
   return absl::OkStatus();
 }
 

@@ -15,11 +15,7 @@
 #include <string>
 
 #include "CLI/CLI.hpp"
-#include "absl/strings/ascii.h"
-#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_split.h"
-#include "absl/strings/strip.h"
 #include "absl/time/clock.h"
 #include "transient/drivers/calibration_capture.h"
 #include "transient/drivers/source_registry.h"
@@ -39,70 +35,6 @@ constexpr int kStartupCalibrationTakes = 20;
 void Log(const std::string& line) {
   std::cerr << absl::FormatTime("%H:%M:%E3S", absl::Now(), absl::LocalTimeZone())
             << " transientd: " << line << std::endl;
-}
-
-// `key = value` lines; '#' starts a comment. Keys: range_method (mese|pisarenko),
-// bias_epsilon, threshold, smoothing_sigma_px, takes, video (true|false).
-absl::Status ReadConfigFile(const std::string& path, ReconstructionConfig* config) {
-  std::ifstream in(path);
-  if (!in) return absl::NotFoundError(absl::StrCat(path, ": cannot be read"));
-  std::string line;
-  for (int number = 1; std::getline(in, line); ++number) {
-    absl::string_view text = line;
-    if (size_t hash = text.find('#'); hash != absl::string_view::npos) text = text.substr(0, hash);
-    text = absl::StripAsciiWhitespace(text);
-    if (text.empty()) continue;
-    std::vector<std::string> parts = absl::StrSplit(text, absl::MaxSplits('=', 1));
-    auto where = [&] { return absl::StrCat(path, ":", number, ": "); };
-    if (parts.size() != 2) {
-      return absl::InvalidArgumentError(absl::StrCat(where(), "expected key = value"));
-    }
-    const std::string key(absl::StripAsciiWhitespace(parts[0]));
-    const std::string value(absl::StripAsciiWhitespace(parts[1]));
-    auto number_of = [&](double* out) -> absl::Status {
-      if (!absl::SimpleAtod(value, out)) {
-        return absl::InvalidArgumentError(absl::StrCat(where(), key, " = ", value,
-                                                       ": expected a number"));
-      }
-      return absl::OkStatus();
-    };
-    absl::Status status;
-    if (key == "range_method") {
-      if (value == "mese") {
-        config->range_method = RangeMethod::kMese;
-      } else if (value == "pisarenko") {
-        config->range_method = RangeMethod::kPisarenko;
-      } else {
-        status = absl::InvalidArgumentError(
-            absl::StrCat(where(), "range_method = ", value, ": expected mese or pisarenko"));
-      }
-    } else if (key == "bias_epsilon") {
-      status = number_of(&config->bias_epsilon);
-    } else if (key == "threshold") {
-      status = number_of(&config->threshold);
-    } else if (key == "smoothing_sigma_px") {
-      status = number_of(&config->smoothing_sigma_px);
-    } else if (key == "takes") {
-      if (!absl::SimpleAtoi(value, &config->takes)) {
-        status = absl::InvalidArgumentError(
-            absl::StrCat(where(), "takes = ", value, ": expected an integer"));
-      }
-    } else if (key == "video") {
-      if (!absl::SimpleAtob(value, &config->video)) {
-        status = absl::InvalidArgumentError(
-            absl::StrCat(where(), "video = ", value, ": expected true or false"));
-      }
-    } else {
-      status = absl::InvalidArgumentError(absl::StrCat(
-          where(), "unknown key '", key,
-          "'; expected range_method, bias_epsilon, threshold, smoothing_sigma_px, takes, video"));
-    }
-    if (!status.ok()) return status;
-  }
-  if (absl::Status status = config->Validate(); !status.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": ", status.message()));
-  }
-  return absl::OkStatus();
 }
 
 // The calibration to start with: --calibration FILE; else the one the source carries (a

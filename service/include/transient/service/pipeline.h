@@ -27,24 +27,10 @@
 #include "transient/reconstruct/calibration.h"
 #include "transient/reconstruct/reconstructor.h"
 #include "transient/service/products.h"
+#include "transient/service/reconstruction_config.h"
+#include "transient/service/subscription.h"
 
 namespace transient::service {
-
-enum class SourceState { kStreaming, kReconnecting, kEnded };
-const char* SourceStateName(SourceState state);
-
-// Reconstruction parameters that SetConfig may change while frames flow.
-struct ReconstructionConfig {
-  RangeMethod range_method = RangeMethod::kMese;
-  double bias_epsilon = 4e-3;        // thesis §8.5
-  double threshold = 0.1;            // relative, (0, 1)
-  double smoothing_sigma_px = 0.6;   // thesis §8.5; 0 = none
-  int takes = 1;                     // cycles of the schedule averaged per frame (sim sources)
-  bool video = true;                 // fill outlier captures from the previous frame
-
-  // InvalidArgument naming the field, its value and the rule.
-  absl::Status Validate() const;
-};
 
 inline constexpr int kMaxSubscribers = 64;
 inline constexpr int64_t kMaxSliceBytesAllStreams = int64_t{256} << 20;
@@ -66,55 +52,6 @@ struct PipelineOptions {
   // Log lines (stats every few seconds, state changes, errors); nullptr = none.
   std::function<void(const std::string&)> log = nullptr;
   absl::Duration stats_log_interval = absl::Seconds(10);
-};
-
-// One published transient frame: immutable once shared.
-struct PublishedFrame {
-  uint64_t sequence = 0;
-  double capture_time_s = 0.0;  // source timestamp of the cycle's first raw frame
-  absl::Time arrival;           // when the cycle's last raw frame came from the source
-  absl::Time publish;
-  SourceState state = SourceState::kStreaming;
-  bool announcement = false;    // a state change without images
-  std::shared_ptr<const FrameProducts> products;  // null for an announcement
-};
-
-// What a subscriber asked the pipeline to compute (encoding and ROI are its own business).
-struct ProductRequest {
-  ProductSet products;
-  std::vector<double> slice_phases;  // radians, for SLICES and CUMULATIVE
-  MomentDepthSpec moment_depth;      // for MOMENT_DEPTH
-};
-
-class Subscription {
- public:
-  Subscription(uint64_t id, std::string peer, ProductRequest request, int queue_frames);
-
-  // The next frame, waiting at most `timeout`; nullptr on timeout or when closed. `missed` is
-  // the number of frames dropped from this queue since the previous call.
-  std::shared_ptr<const PublishedFrame> Next(absl::Duration timeout, uint64_t* missed);
-  bool closed() const;
-  const ProductRequest& request() const { return request_; }
-  uint64_t id() const { return id_; }
-  const std::string& peer() const { return peer_; }
-  uint64_t frames_delivered() const;
-  uint64_t frames_missed() const;
-
- private:
-  friend class Pipeline;
-  void Push(std::shared_ptr<const PublishedFrame> frame);
-  void Close();
-
-  const uint64_t id_;
-  const std::string peer_;
-  const ProductRequest request_;
-  const size_t capacity_;
-  mutable absl::Mutex mu_;
-  std::deque<std::shared_ptr<const PublishedFrame>> queue_ ABSL_GUARDED_BY(mu_);
-  uint64_t missed_since_last_ ABSL_GUARDED_BY(mu_) = 0;
-  uint64_t missed_total_ ABSL_GUARDED_BY(mu_) = 0;
-  uint64_t delivered_ ABSL_GUARDED_BY(mu_) = 0;
-  bool closed_ ABSL_GUARDED_BY(mu_) = false;
 };
 
 struct SubscriberSnapshot {
