@@ -17,6 +17,8 @@
 #include "transient/drivers/calibration_capture.h"
 #include "transient/formats/calibration_file.h"
 #include "cycle_queue.h"
+#include "hdf5_lock.h"
+#include "recorder.h"
 #include "transient/drivers/source_registry.h"
 #include "transient/reconstruct/cycle_assembler.h"
 #include "transient/reconstruct/demodulation.h"
@@ -25,18 +27,16 @@
 #include "transient/reconstruct/smoothing.h"
 
 namespace transient::service {
-namespace {
 
-constexpr absl::Duration kNextTimeout = absl::Milliseconds(100);
-constexpr size_t kLatencyWindow = 1024;
-constexpr uint64_t kMaxRecordingFrames = uint64_t{1} << 32;
-
-// HDF5 (Debian's build) is not thread-safe: every HDF5 call of the daemon (replay reads,
-// recordings, calibration files) holds this.
 absl::Mutex& Hdf5Mutex() {
   static absl::Mutex* mu = new absl::Mutex();
   return *mu;
 }
+
+namespace {
+
+constexpr absl::Duration kNextTimeout = absl::Milliseconds(100);
+constexpr size_t kLatencyWindow = 1024;
 
 // The source of a Calibrate RPC: each call holds the HDF5 mutex only for itself (a replay reads
 // HDF5), so the stream goes on meanwhile; Next fails with Cancelled once the client went away
@@ -93,9 +93,8 @@ struct Pipeline::Impl {
   void SourceLoop();
   bool OpenSourceLocked() ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
   void CloseSourceLocked(const std::string& reason) ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
-  void ServeRecordingRequests(const RawFrame* frame, bool final) ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
-  void Record(const RawFrame& frame) ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
-  void FinishRecordingLocked(const std::string& error) ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
+  // Why a recording cannot begin now: the source's state.
+  std::string NoFramesToRecord();
   void Announce(SourceState state);
   void PushCycle(CycleItem item);
   void SleepInterruptibly(absl::Duration duration);
@@ -115,11 +114,8 @@ struct Pipeline::Impl {
   std::unique_ptr<CaptureSource> source;
   std::optional<CycleAssembler> assembler;
   std::shared_ptr<const AcquisitionSchedule> source_schedule;
-  std::optional<CaptureWriter> writer;
-  uint64_t record_limit_raw = 0;  // 0 = until stopped
   uint64_t source_frames_lost = 0;        // DataLoss from the source
   uint64_t assembler_dropped_before = 0;  // by assemblers of sources closed since
-  bool record_waiting_for_cycle_start = false;
 
   // Reconstruction thread only: rebuilt when the schedule or the config changes.
   struct ReconstructState {
@@ -154,19 +150,9 @@ struct Pipeline::Impl {
   std::deque<double> latencies_ms ABSL_GUARDED_BY(mu);
   std::deque<absl::Time> reconstruct_times ABSL_GUARDED_BY(mu);
   double reconstruct_ms_total ABSL_GUARDED_BY(mu) = 0.0;
-  RecordingStatus recording ABSL_GUARDED_BY(mu);
-  // A StartRecording waiting for the source thread to create the file.
-  struct PendingRecording {
-    std::string path;
-    uint64_t max_frames = 0;
-    int deflate_level = 1;
-    bool done = false;
-    absl::Status result;
-  };
-  std::shared_ptr<PendingRecording> pending_recording ABSL_GUARDED_BY(mu);
-  bool stop_recording_requested ABSL_GUARDED_BY(mu) = false;
 
   CycleQueue cycle_queue;  // between the threads
+  Recorder recorder{[this](const std::string& line) { Log(line); }};
 };
 
 bool Pipeline::Impl::OpenSourceLocked() {
@@ -206,7 +192,7 @@ bool Pipeline::Impl::OpenSourceLocked() {
 
 void Pipeline::Impl::CloseSourceLocked(const std::string& reason) {
   // A recording holds one source's frames under one schedule: it ends with that source.
-  if (writer.has_value()) FinishRecordingLocked(absl::StrCat("stopped: ", reason));
+  recorder.Finish(absl::StrCat("stopped: ", reason));
   if (assembler.has_value()) {
     assembler_dropped_before += static_cast<uint64_t>(assembler->dropped_frames());
   }
@@ -243,110 +229,10 @@ void Pipeline::Impl::PushCycle(CycleItem item) {
   }
 }
 
-// Serves StopRecording, and StartRecording with the frame that begins the file. Without a frame
-// a StartRecording waits for one, unless `final` (no frame will come): then it fails.
-void Pipeline::Impl::ServeRecordingRequests(const RawFrame* frame, bool final) {
-  std::shared_ptr<PendingRecording> pending;
-  bool stop_requested = false;
-  {
-    absl::MutexLock lock(&mu);
-    // Without a frame a StartRecording stays pending (unless final): taken only when served,
-    // so that its own timeout can withdraw it.
-    if (frame != nullptr || final) {
-      pending = pending_recording;
-      pending_recording = nullptr;
-    }
-    stop_requested = stop_recording_requested;
-    stop_recording_requested = false;
-  }
-  if (stop_requested) FinishRecordingLocked("");
-  if (pending == nullptr) return;
-  absl::Status result;
-  if (writer.has_value()) {
-    result = absl::FailedPreconditionError(
-        absl::StrCat("a recording to ", writer->path(), " is in progress"));
-  } else if (frame == nullptr || source == nullptr) {
-    absl::MutexLock lock(&mu);
-    result = absl::FailedPreconditionError(absl::StrCat(
-        "the source ", source_uri, " is ", SourceStateName(state), "; no frames to record"));
-  } else {
-    // Created with the first frame's saturation level, as `transient record` does.
-    CaptureWriterOptions writer_options{.pixel_type = CapturePixelType::kFloat32,
-                                        .deflate_level = pending->deflate_level,
-                                        .source_uri = source->uri(),
-                                        .saturation_level = frame->saturation_level};
-    absl::StatusOr<CaptureWriter> created = CaptureWriter::Create(
-        pending->path, source->camera(), *source_schedule, writer_options);
-    if (created.ok()) {
-      absl::StatusOr<GroundTruth> truth = source->GroundTruthAt(frame->config.timestamp_s);
-      if (truth.ok()) result = created->SetGroundTruth(*truth);
-      std::shared_ptr<const CalibrationTable> table;
-      {
-        absl::MutexLock lock(&mu);
-        table = calibration;
-      }
-      if (result.ok() && table != nullptr) result = created->EmbedCalibration(*table);
-      if (result.ok()) {
-        writer.emplace(*std::move(created));
-        record_limit_raw = pending->max_frames *  // max_frames <= kMaxRecordingFrames
-                           static_cast<uint64_t>(source_schedule->raw_frames_per_frame());
-        record_waiting_for_cycle_start = true;
-        absl::MutexLock lock(&mu);
-        recording = RecordingStatus{.path = pending->path, .active = true, .error = {}};
-      } else {
-        (void)created->Close();
-        std::error_code ignored;
-        std::filesystem::remove(pending->path, ignored);
-      }
-    } else {
-      result = created.status();
-    }
-  }
-  if (result.ok()) Log(absl::StrCat("recording: started ", pending->path));
+std::string Pipeline::Impl::NoFramesToRecord() {
   absl::MutexLock lock(&mu);
-  pending->result = result;
-  pending->done = true;
-}
-
-void Pipeline::Impl::Record(const RawFrame& frame) {
-  ServeRecordingRequests(&frame, false);
-  if (!writer.has_value()) return;
-  if (record_waiting_for_cycle_start) {
-    // The file begins with a whole capture cycle: take 0, first exposure.
-    absl::StatusOr<int> index = source_schedule->IndexOf(frame.config);
-    if (!index.ok() || *index != 0) return;
-    record_waiting_for_cycle_start = false;
-  }
-  if (absl::Status status = writer->Append(frame); !status.ok()) {
-    FinishRecordingLocked(absl::StrCat("stopped: ", status.message()));
-    return;
-  }
-  {
-    absl::MutexLock lock(&mu);
-    recording.raw_frames = static_cast<uint64_t>(writer->frames());
-    recording.flushed_frames = static_cast<uint64_t>(writer->flushed_frames());
-  }
-  if (record_limit_raw > 0 && static_cast<uint64_t>(writer->frames()) >= record_limit_raw) {
-    FinishRecordingLocked("");
-  }
-}
-
-void Pipeline::Impl::FinishRecordingLocked(const std::string& error) {
-  if (!writer.has_value()) return;
-  std::string message = error;
-  if (absl::Status status = writer->Close(); !status.ok() && message.empty()) {
-    message = absl::StrCat("closing failed: ", status.message());
-  }
-  const uint64_t frames = static_cast<uint64_t>(writer->frames());
-  const std::string path = writer->path();
-  writer.reset();
-  absl::MutexLock lock(&mu);
-  recording.active = false;
-  recording.raw_frames = frames;
-  recording.flushed_frames = frames;
-  recording.error = message;
-  Log(absl::StrCat("recording: ", path, " closed with ", frames, " raw frames",
-                   message.empty() ? "" : "; ", message));
+  return absl::StrCat("the source ", source_uri, " is ", SourceStateName(state),
+                      "; no frames to record");
 }
 
 void Pipeline::Impl::SourceLoop() {
@@ -357,8 +243,9 @@ void Pipeline::Impl::SourceLoop() {
     if (ended) {
       // A finished replay: nothing more to read; recordings and RPCs still work.
       {
+        const std::string why = NoFramesToRecord();
         absl::MutexLock lock(&Hdf5Mutex());
-        ServeRecordingRequests(nullptr, true);
+        recorder.OnNoFrame(/*final=*/true, why);
       }
       SleepInterruptibly(kNextTimeout);
       continue;
@@ -377,8 +264,9 @@ void Pipeline::Impl::SourceLoop() {
       }
       if (!opened) {
         {
+          const std::string why = NoFramesToRecord();
           absl::MutexLock lock(&Hdf5Mutex());
-          ServeRecordingRequests(nullptr, true);
+          recorder.OnNoFrame(/*final=*/true, why);
         }
         Announce(SourceState::kReconnecting);
         SleepInterruptibly(backoff);
@@ -397,7 +285,12 @@ void Pipeline::Impl::SourceLoop() {
       absl::MutexLock lock(&Hdf5Mutex());
       next = source->Next(kNextTimeout, &frame);
       if (next.ok()) {
-        Record(frame);
+        std::shared_ptr<const CalibrationTable> table;
+        {
+          absl::MutexLock lock(&mu);
+          table = calibration;
+        }
+        recorder.OnFrame(frame, *source, std::move(table));
         absl::StatusOr<bool> added = assembler->Add(frame);
         complete = added.ok() && *added;
         absl::MutexLock stats_lock(&mu);
@@ -405,7 +298,7 @@ void Pipeline::Impl::SourceLoop() {
         stats.raw_frames_dropped = source_frames_lost + assembler_dropped_before +
                                    static_cast<uint64_t>(assembler->dropped_frames());
       } else {
-        ServeRecordingRequests(nullptr, false);
+        recorder.OnNoFrame(/*final=*/false, "");
       }
       if (absl::IsOutOfRange(next)) {
         CloseSourceLocked(absl::StrCat(source->uri(), " ended"));
@@ -452,9 +345,10 @@ void Pipeline::Impl::SourceLoop() {
     SleepInterruptibly(backoff);
     backoff = std::min(backoff * 2, options.reopen_backoff_max);
   }
+  const std::string why = NoFramesToRecord();
   absl::MutexLock lock(&Hdf5Mutex());
-  FinishRecordingLocked("");
-  ServeRecordingRequests(nullptr, true);  // a StartRecording still waiting fails now
+  recorder.Finish("");
+  recorder.OnNoFrame(/*final=*/true, why);  // a StartRecording still waiting fails now
   CloseSourceLocked("the daemon stopped");
 }
 
@@ -663,6 +557,7 @@ void Pipeline::Start() {
 void Pipeline::Stop() {
   if (impl_->stopping.exchange(true)) return;
   impl_->cycle_queue.Close();
+  impl_->recorder.Shutdown();
   if (impl_->source_thread.joinable()) impl_->source_thread.join();
   if (impl_->reconstruct_thread.joinable()) impl_->reconstruct_thread.join();
   std::vector<std::shared_ptr<Subscription>> subscriptions;
@@ -887,65 +782,14 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
 
 absl::StatusOr<RecordingStatus> Pipeline::StartRecording(const std::string& path,
                                                          uint64_t max_frames, int deflate_level) {
-  if (path.empty()) return absl::InvalidArgumentError("path: expected a file name");
-  if (deflate_level < 0 || deflate_level > 9) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("deflate_level = ", deflate_level, ": expected 0..9"));
-  }
-  if (max_frames > kMaxRecordingFrames) {
-    return absl::InvalidArgumentError(absl::StrCat("max_frames = ", max_frames, ": expected 0..",
-                                                   kMaxRecordingFrames, " (0 = until stopped)"));
-  }
-  if (std::filesystem::exists(path)) {
-    return absl::AlreadyExistsError(
-        absl::StrCat("path: ", path, " exists; a recording never replaces a file"));
-  }
-  auto pending = std::make_shared<Impl::PendingRecording>();
-  pending->path = path;
-  pending->max_frames = max_frames;
-  pending->deflate_level = deflate_level;
-  absl::MutexLock lock(&impl_->mu);
-  if (impl_->recording.active) {
-    return absl::FailedPreconditionError(
-        absl::StrCat("a recording to ", impl_->recording.path, " is in progress"));
-  }
-  if (impl_->pending_recording != nullptr) {
-    return absl::FailedPreconditionError("another StartRecording is being served");
-  }
-  if (!impl_->started || impl_->stopping.load()) {
-    return absl::FailedPreconditionError("the pipeline is not running");
-  }
-  impl_->pending_recording = pending;
-  auto done = [&pending]() -> bool { return pending->done; };
-  if (!impl_->mu.AwaitWithTimeout(absl::Condition(&done), absl::Seconds(10))) {
-    if (impl_->pending_recording == pending) impl_->pending_recording = nullptr;
-    return absl::UnavailableError(absl::StrCat(
-        "no frame from ", impl_->source_uri, " within 10 s to begin the recording (",
-        SourceStateName(impl_->state), ")"));
-  }
-  if (!pending->result.ok()) return pending->result;
-  return impl_->recording;
+  return impl_->recorder.Start(
+      path, max_frames, deflate_level, impl_->started && !impl_->stopping.load(), [this] {
+        absl::MutexLock lock(&impl_->mu);
+        return absl::StrCat(impl_->source_uri, " (", SourceStateName(impl_->state), ")");
+      });
 }
 
-absl::StatusOr<RecordingStatus> Pipeline::StopRecording() {
-  absl::MutexLock lock(&impl_->mu);
-  if (!impl_->recording.active) {
-    return absl::FailedPreconditionError(
-        impl_->recording.path.empty()
-            ? std::string("no recording in progress")
-            : absl::StrCat("no recording in progress; the last was ", impl_->recording.path,
-                           impl_->recording.error.empty() ? "" : " (",
-                           impl_->recording.error, impl_->recording.error.empty() ? "" : ")"));
-  }
-  impl_->stop_recording_requested = true;
-  auto stopped = [this]() ABSL_EXCLUSIVE_LOCKS_REQUIRED(impl_->mu) {
-    return !impl_->recording.active || impl_->stopping.load();
-  };
-  if (!impl_->mu.AwaitWithTimeout(absl::Condition(&stopped), absl::Seconds(10))) {
-    return absl::UnavailableError("the recording did not close within 10 s");
-  }
-  return impl_->recording;
-}
+absl::StatusOr<RecordingStatus> Pipeline::StopRecording() { return impl_->recorder.Stop(); }
 
 PipelineStats Pipeline::Stats() const {
   absl::MutexLock lock(&impl_->mu);
@@ -974,7 +818,7 @@ PipelineStats Pipeline::Stats() const {
                                                .frames_missed = sub->frames_missed(),
                                                .products = sub->request().products});
   }
-  s.recording = impl_->recording;
+  s.recording = impl_->recorder.status();
   return s;
 }
 
