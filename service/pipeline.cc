@@ -23,7 +23,6 @@
 #include "transient/reconstruct/cycle_assembler.h"
 #include "transient/reconstruct/demodulation.h"
 #include "transient/reconstruct/frame_pipeline.h"
-#include "transient/reconstruct/percentile.h"
 #include "transient/reconstruct/smoothing.h"
 
 namespace transient::service {
@@ -36,7 +35,6 @@ absl::Mutex& Hdf5Mutex() {
 namespace {
 
 constexpr absl::Duration kNextTimeout = absl::Milliseconds(100);
-constexpr size_t kLatencyWindow = 1024;
 
 // The source of a Calibrate RPC: each call holds the HDF5 mutex only for itself (a replay reads
 // HDF5), so the stream goes on meanwhile; Next fails with Cancelled once the client went away
@@ -147,9 +145,7 @@ struct Pipeline::Impl {
   uint64_t next_subscription_id ABSL_GUARDED_BY(mu) = 1;
   std::shared_ptr<const FrameProducts> latest ABSL_GUARDED_BY(mu);
   PipelineStats stats ABSL_GUARDED_BY(mu);
-  std::deque<double> latencies_ms ABSL_GUARDED_BY(mu);
-  std::deque<absl::Time> reconstruct_times ABSL_GUARDED_BY(mu);
-  double reconstruct_ms_total ABSL_GUARDED_BY(mu) = 0.0;
+  FrameTimings timings ABSL_GUARDED_BY(mu);
 
   CycleQueue cycle_queue;  // between the threads
   Recorder recorder{[this](const std::string& line) { Log(line); }};
@@ -376,8 +372,7 @@ void Pipeline::Impl::Publish(std::shared_ptr<const PublishedFrame> frame) {
     targets = subscriptions;
     if (!frame->announcement) {
       ++stats.frames_published;
-      latencies_ms.push_back(absl::ToDoubleMilliseconds(frame->publish - frame->arrival));
-      if (latencies_ms.size() > kLatencyWindow) latencies_ms.pop_front();
+      timings.AddPublished(frame->publish - frame->arrival);
     }
   }
   for (const auto& s : targets) s->Push(frame);
@@ -461,12 +456,7 @@ void Pipeline::Impl::Reconstruct(CycleItem& item) {
     latest = products;
     ++stats.frames_reconstructed;
     stats.raw_frames_rejected += st.report.rejected.size();
-    reconstruct_ms_total += absl::ToDoubleMilliseconds(frame->publish - begin);
-    reconstruct_times.push_back(frame->publish);
-    while (reconstruct_times.size() > 1 &&
-           reconstruct_times.front() < frame->publish - absl::Seconds(5)) {
-      reconstruct_times.pop_front();
-    }
+    timings.AddReconstructed(frame->publish - begin, frame->publish);
   }
   Publish(std::move(frame));
 }
@@ -795,22 +785,7 @@ PipelineStats Pipeline::Stats() const {
   absl::MutexLock lock(&impl_->mu);
   PipelineStats s = impl_->stats;
   s.state = impl_->state;
-  std::vector<double> latencies(impl_->latencies_ms.begin(), impl_->latencies_ms.end());
-  // The client's statistic too (percentile.h); 0 before the first frame, as before.
-  if (!latencies.empty()) {
-    s.latency_p50_ms = Percentile(std::span<double>(latencies), 50.0);
-    s.latency_p90_ms = Percentile(std::span<double>(latencies), 90.0);
-    s.latency_p99_ms = Percentile(std::span<double>(latencies), 99.0);
-    s.latency_max_ms = Percentile(std::span<double>(latencies), 100.0);
-  }
-  if (s.frames_reconstructed > 0) {
-    s.reconstruct_ms_mean = impl_->reconstruct_ms_total / s.frames_reconstructed;
-  }
-  if (impl_->reconstruct_times.size() >= 2) {
-    s.frames_per_second =
-        (impl_->reconstruct_times.size() - 1) /
-        absl::ToDoubleSeconds(impl_->reconstruct_times.back() - impl_->reconstruct_times.front());
-  }
+  impl_->timings.Fill(&s);
   for (const auto& sub : impl_->subscriptions) {
     s.subscribers.push_back(SubscriberSnapshot{.id = sub->id(),
                                                .peer = sub->peer(),

@@ -26,6 +26,7 @@
 #include "transient/drivers/capture_source.h"
 #include "transient/reconstruct/calibration.h"
 #include "transient/reconstruct/reconstructor.h"
+#include "transient/service/pipeline_stats.h"
 #include "transient/service/products.h"
 #include "transient/service/reconstruction_config.h"
 #include "transient/service/subscription.h"
@@ -52,32 +53,6 @@ struct PipelineOptions {
   // Log lines (stats every few seconds, state changes, errors); nullptr = none.
   std::function<void(const std::string&)> log = nullptr;
   absl::Duration stats_log_interval = absl::Seconds(10);
-};
-
-struct SubscriberSnapshot {
-  uint64_t id = 0;
-  std::string peer;
-  uint64_t frames_sent = 0, frames_missed = 0;
-  ProductSet products;
-};
-
-struct RecordingStatus {
-  std::string path;
-  bool active = false;
-  uint64_t raw_frames = 0, flushed_frames = 0;
-  std::string error;  // why the last recording stopped by itself
-};
-
-struct PipelineStats {
-  uint64_t raw_frames_in = 0, raw_frames_dropped = 0, raw_frames_rejected = 0;
-  uint64_t cycles_assembled = 0, cycles_dropped = 0, cycles_refused = 0;
-  uint64_t frames_reconstructed = 0, frames_published = 0, source_reopens = 0;
-  SourceState state = SourceState::kStreaming;
-  double latency_p50_ms = 0, latency_p90_ms = 0, latency_p99_ms = 0, latency_max_ms = 0;
-  double reconstruct_ms_mean = 0;
-  double frames_per_second = 0;
-  std::vector<SubscriberSnapshot> subscribers;
-  RecordingStatus recording;
 };
 
 struct CalibrationOutcome {
