@@ -28,6 +28,9 @@
 
 namespace transient {
 
+inline constexpr char kCalibrationFormatName[] = "transient-calibration";
+inline constexpr int kCalibrationFormatMajor = 1;
+
 // Writes `table` to `path` atomically: into "<path>.tmp-<pid>", then renamed over `path`, so
 // that a failure or a crash leaves either the old file or the new one, never half of one.
 // InvalidArgument for an inconsistent table (sizes, order, schedule), PermissionDenied /
