@@ -20,6 +20,7 @@
 #include "transient/drivers/calibration_capture.h"
 #include "transient/formats/calibration_file.h"
 #include "transient/formats/capture_file.h"
+#include "transient/formats/file_format.h"
 #include "transient/drivers/capture_source.h"
 #include "transient/formats/h5.h"
 #include "transient/drivers/simulator.h"
@@ -488,7 +489,10 @@ absl::StatusOr<std::string> DescribeMoments(const std::string& path) {
       file->has_flags() ? "yes" : "no");
 }
 
-absl::StatusOr<std::string> DescribeReconstruction(const std::string& path, hid_t file) {
+absl::StatusOr<std::string> DescribeReconstruction(const std::string& path) {
+  absl::StatusOr<h5::Id> opened = h5::OpenFileForReading(path, "an HDF5 reconstruction file");
+  if (!opened.ok()) return opened.status();
+  const hid_t file = opened->get();
   std::string text = absl::StrCat(path, ": reconstruction (transient-reconstruction 1)");
   for (const char* attribute : {"method", "zeroth", "source"}) {
     absl::StatusOr<std::string> value = h5::ReadStringAttribute(file, attribute, path);
@@ -513,45 +517,26 @@ absl::StatusOr<std::string> DescribeReconstruction(const std::string& path, hid_
 }  // namespace
 
 absl::StatusOr<std::string> DescribeFile(const std::string& path) {
-  h5::SilenceErrorStack();
-  std::error_code error;
-  if (!std::filesystem::exists(path, error)) {
-    return absl::NotFoundError(absl::StrCat(path, ": no such file"));
-  }
-  if (H5Fis_hdf5(path.c_str()) <= 0) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": not an HDF5 file"));
-  }
-  h5::Id file = h5::File(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
-  if (!file.valid()) {
-    // A recording killed while being written keeps SWMR's marks; its reader opens it anyway.
-    absl::StatusOr<std::string> capture = DescribeCapture(path);
-    if (capture.ok()) return capture;
-    return absl::DataLossError(
-        absl::StrCat(path, ": HDF5 cannot open the file (corrupt, truncated or locked)"));
-  }
-  absl::StatusOr<std::string> format = h5::ReadStringAttribute(file.get(), "format", path);
-  if (!format.ok()) {
+  absl::StatusOr<FileIdentity> file = IdentifyFile(path);
+  if (!file.ok()) return file.status();
+  if (!file->named.has_value()) {
     return absl::InvalidArgumentError(absl::StrCat(
-        path, ": an HDF5 file without a format attribute, not a file of this project"));
+        path, ": format '", file->text,
+        "' is none of transient-capture, transient-calibration, transient-moments, "
+        "transient-reconstruction"));
   }
-  const std::string name = format->substr(0, format->find(' '));
-  if (name == kCaptureFormatName) {
-    file = h5::Id();
-    return DescribeCapture(path);
+  // By name: the reader of that format says what is wrong with another version.
+  switch (*file->named) {
+    case FileFormat::kCapture:
+      return DescribeCapture(path);
+    case FileFormat::kCalibration:
+      return DescribeCalibration(path);
+    case FileFormat::kMoments:
+      return DescribeMoments(path);
+    case FileFormat::kReconstruction:
+      return DescribeReconstruction(path);
   }
-  if (name == "transient-calibration") {
-    file = h5::Id();
-    return DescribeCalibration(path);
-  }
-  if (name == kMomentFormatName) {
-    file = h5::Id();
-    return DescribeMoments(path);
-  }
-  if (name == "transient-reconstruction") return DescribeReconstruction(path, file.get());
-  return absl::InvalidArgumentError(absl::StrCat(
-      path, ": format '", *format,
-      "' is none of transient-capture, transient-calibration, transient-moments, "
-      "transient-reconstruction"));
+  return absl::InternalError(absl::StrCat(path, ": unknown file format"));
 }
 
 }  // namespace transient::tools
