@@ -16,6 +16,7 @@
 #include "absl/strings/str_format.h"
 #include "transient/drivers/calibration_capture.h"
 #include "transient/formats/calibration_file.h"
+#include "transient/formats/hdf5_lock.h"
 #include "transient/drivers/replay_source.h"
 #include "transient/drivers/simulator.h"
 #include "transient/reconstruct/cycle_assembler.h"
@@ -29,13 +30,6 @@ constexpr absl::Duration kNextTimeout = absl::Milliseconds(100);
 constexpr size_t kLatencyWindow = 1024;
 constexpr int kMaxTakes = 64;
 constexpr uint64_t kMaxRecordingFrames = uint64_t{1} << 32;
-
-// HDF5 (Debian's build) is not thread-safe: every HDF5 call of the daemon (replay reads,
-// recordings, calibration files) holds this.
-absl::Mutex& Hdf5Mutex() {
-  static absl::Mutex* mu = new absl::Mutex();
-  return *mu;
-}
 
 bool IsFastReplay(const std::string& uri) {
   if (!absl::StartsWith(uri, "replay:")) return false;

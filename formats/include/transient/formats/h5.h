@@ -3,7 +3,8 @@
 // attributes against a layout, and creating, reading and writing datasets whole or block by
 // block. Everything speaks HDF5's C API and reports failures as absl::Status; a message about
 // an object starts with "<file>: <object>" (Where) and names the rule that was broken.
-// Not thread-safe, as Debian's HDF5 is not.
+// Not thread-safe, as Debian's HDF5 is not: multi-threaded users hold Hdf5Mutex()
+// (hdf5_lock.h) around every call.
 #pragma once
 
 #include <hdf5.h>
