@@ -1,14 +1,8 @@
 // Calibration files and the calibration group a capture embeds: layout checks, the group's
-// writer and reader, the atomic file write (temporary file + rename) and the validated file read.
+// writer and reader, the atomic file write and the validated file read.
 #include "transient/formats/calibration_file.h"
 
-#include <unistd.h>
-
-#include <cerrno>
 #include <cstdint>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -177,44 +171,26 @@ absl::StatusOr<CalibrationTable> ReadCalibrationGroup(hid_t file, absl::string_v
   return table;
 }
 
-absl::Status WriteCalibrationFile(const std::string& path, const CalibrationTable& table) {
+absl::Status WriteCalibrationFile(const std::string& path, const CalibrationTable& table,
+                                  CommitMode mode) {
   h5::SilenceErrorStack();
   if (absl::Status status = CheckCalibrationTable(table); !status.ok()) {
     return absl::InvalidArgumentError(absl::StrCat(path, ": ", status.message()));
   }
-  const std::string temporary = absl::StrCat(path, ".tmp-", getpid());
-  const auto fail = [&](absl::Status status) {
-    std::error_code ignored;
-    std::filesystem::remove(temporary, ignored);
-    return status;
-  };
+  absl::StatusOr<AtomicOutput> output = AtomicOutput::Prepare(path, mode);
+  if (!output.ok()) return output.status();
+  const std::string& temporary = output->temporary_path();
   h5::Id file = h5::File(H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT));
   if (!file.valid()) {
-    // HDF5 hides errno; probe the directory ourselves for a useful code.
-    std::FILE* probe = std::fopen(temporary.c_str(), "wb");
-    const int reason = probe == nullptr ? errno : 0;
-    if (probe != nullptr) std::fclose(probe);
-    const std::string message =
-        absl::StrCat(path, ": cannot create ", temporary,
-                     reason != 0 ? absl::StrCat(" (", std::strerror(reason), ")") : "");
-    if (reason == EACCES) return fail(absl::PermissionDeniedError(message));
-    if (reason == ENOENT) return fail(absl::NotFoundError(message));
-    return fail(absl::InternalError(message));
+    return absl::InternalError(absl::StrCat(path, ": HDF5 cannot create ", temporary));
   }
   if (absl::Status status = WriteCalibrationGroup(file.get(), table); !status.ok()) {
-    return fail(absl::InternalError(absl::StrCat(path, ": ", status.message())));
+    return absl::InternalError(absl::StrCat(path, ": ", status.message()));
   }
   if (absl::Status status = file.Close(); !status.ok()) {
-    return fail(absl::InternalError(absl::StrCat(path, ": ", status.message())));
+    return absl::InternalError(absl::StrCat(path, ": ", status.message()));
   }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-    const int reason = errno;
-    const std::string message = absl::StrCat(path, ": cannot rename ", temporary, " to it (",
-                                             std::strerror(reason), ")");
-    return fail(reason == EACCES ? absl::PermissionDeniedError(message)
-                                 : absl::InternalError(message));
-  }
-  return absl::OkStatus();
+  return output->Commit();
 }
 
 absl::StatusOr<CalibrationTable> ReadCalibrationFile(const std::string& path) {
