@@ -1,4 +1,4 @@
-// Parsing and checking of the root `format` attribute.
+// Parsing, checking, writing and reading of the root `format` attribute.
 #include "transient/formats/format_tag.h"
 
 #include <optional>
@@ -7,11 +7,10 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "transient/formats/h5.h"
 
 namespace transient {
-namespace {
 
-// "NAME MAJOR" or "NAME MAJOR.MINOR" with non-negative decimal versions; nullopt otherwise.
 std::optional<FormatTag> ParseFormatTag(absl::string_view text) {
   const std::vector<absl::string_view> words = absl::StrSplit(text, ' ');
   if (words.size() != 2 || words[0].empty()) return std::nullopt;
@@ -27,8 +26,6 @@ std::optional<FormatTag> ParseFormatTag(absl::string_view text) {
   if (numbers.size() == 2 && !absl::SimpleAtoi(numbers[1], &tag.minor)) return std::nullopt;
   return tag;
 }
-
-}  // namespace
 
 std::string FormatTagString(absl::string_view name, int major) {
   return absl::StrCat(name, " ", major);
@@ -48,6 +45,20 @@ absl::Status CheckFormatTag(absl::string_view text, absl::string_view name, int 
   if (tag->major != major) {
     return absl::InvalidArgumentError(
         absl::StrCat(expected_found, " (unsupported major version ", tag->major, ")"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status WriteFormatAttribute(hid_t object, absl::string_view name, int major) {
+  return h5::WriteStringAttribute(object, "format", FormatTagString(name, major));
+}
+
+absl::Status ReadFormatAttribute(hid_t object, absl::string_view where, absl::string_view name,
+                                 int major) {
+  absl::StatusOr<std::string> text = h5::ReadStringAttribute(object, "format", where);
+  if (!text.ok()) return text.status();
+  if (absl::Status tag = CheckFormatTag(*text, name, major); !tag.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ": attribute format: ", tag.message()));
   }
   return absl::OkStatus();
 }

@@ -9,24 +9,16 @@
 namespace transient {
 namespace {
 
-bool Wanted(Product product, const ReconstructionHeader& header) {
-  switch (product) {
-    case Product::kRange:
-    case Product::kZerothMoment:
-    case Product::kFlags:
+// Whether a file written with `header` holds the products of `group`.
+bool Written(ProductGroup group, const ReconstructionHeader& header) {
+  switch (group) {
+    case ProductGroup::kAlways:
       return true;
-    case Product::kDensity:
-    case Product::kCumulative:
+    case ProductGroup::kMese:
       return header.mese;
-    case Product::kPisarenkoPhase:
-    case Product::kPisarenkoWeight:
-    case Product::kPisarenkoUniform:
-    case Product::kPisarenkoRange:
-    case Product::kPisarenkoDirect:
-    case Product::kPisarenkoIndirect:
+    case ProductGroup::kPisarenko:
       return header.pisarenko;
-    case Product::kBoundsLower:
-    case Product::kBoundsUpper:
+    case ProductGroup::kBounds:
       return header.bounds_r.has_value();
   }
   return false;
@@ -40,9 +32,7 @@ absl::Status CreateGroup(hid_t file, const char* path) {
 
 absl::Status WriteRootAttributes(hid_t file, const ReconstructionHeader& header) {
   for (absl::Status status : {
-           h5::WriteStringAttribute(
-               file, "format",
-               FormatTagString(kReconstructionFormatName, kReconstructionFormatMajor)),
+           WriteFormatAttribute(file, kReconstructionFormatName, kReconstructionFormatMajor),
            h5::WriteDoubleAttribute(file, "base_frequency_hz", header.base_frequency_hz),
            h5::WriteInt64Attribute(file, "bins", static_cast<int64_t>(header.phases.size())),
            h5::WriteStringAttribute(file, "method", header.method),
@@ -64,14 +54,13 @@ absl::Status WriteRootAttributes(hid_t file, const ReconstructionHeader& header)
 
 // /phase_rad: the phases of the bins planes, so that plots need not recompute them.
 absl::Status WritePhases(hid_t file, const std::vector<double>& phases) {
-  const hsize_t dims[1] = {phases.size()};
-  h5::Id space = h5::Dataspace(H5Screate_simple(1, dims, nullptr));
-  h5::Id dataset = h5::Dataset(H5Dcreate2(file, "/phase_rad", H5T_IEEE_F64LE, space.get(),
-                                          H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
-  if (!dataset.valid() || H5Dwrite(dataset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT,
-                                   phases.data()) < 0) {
-    return absl::InternalError("cannot write /phase_rad");
+  if (absl::Status status = h5::WriteDataset(file, kPhasesPath, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
+                                             {phases.size()}, phases.data());
+      !status.ok()) {
+    return status;
   }
+  h5::Id dataset = h5::Dataset(H5Dopen2(file, kPhasesPath, H5P_DEFAULT));
+  if (!dataset.valid()) return absl::InternalError(absl::StrCat("cannot open ", kPhasesPath));
   if (absl::Status written = h5::WriteStringAttribute(dataset.get(), "units", units::kRadians);
       !written.ok()) {
     return written;
@@ -80,6 +69,27 @@ absl::Status WritePhases(hid_t file, const std::vector<double>& phases) {
 }
 
 }  // namespace
+
+int PlaneCount(ProductPlanes planes, int bins, int order) {
+  switch (planes) {
+    case ProductPlanes::kOne:
+      return 1;
+    case ProductPlanes::kBins:
+      return bins;
+    case ProductPlanes::kOrder:
+      return order;
+  }
+  return 0;
+}
+
+ProductBlock BlockOf(const ProductLayout& layout, int64_t frame, int first_plane, int planes,
+                     ImageGeometry geometry) {
+  const hsize_t height = geometry.height, width = geometry.width;
+  const hsize_t index = static_cast<hsize_t>(frame);
+  if (layout.planes == ProductPlanes::kOne) return {{index, 0, 0}, {1, height, width}};
+  return {{index, static_cast<hsize_t>(first_plane), 0, 0},
+          {1, static_cast<hsize_t>(planes), height, width}};
+}
 
 absl::StatusOr<ReconstructionFile> ReconstructionFile::Create(const std::string& path,
                                                               const ReconstructionHeader& header) {
@@ -107,45 +117,29 @@ absl::StatusOr<ReconstructionFile> ReconstructionFile::Create(const std::string&
     if (absl::Status status = WritePhases(id, header.phases); !status.ok()) return failed(status);
   }
 
-  const hsize_t frames = header.frames;
-  const hsize_t height = header.geometry.height, width = header.geometry.width;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const uint8_t zero = 0;
   for (const ProductLayout& spec : kProductLayouts) {
-    if (!Wanted(spec.product, header)) continue;
-    const int planes = spec.planes == ProductPlanes::kOne    ? 1
-                       : spec.planes == ProductPlanes::kBins ? static_cast<int>(header.phases.size())
-                                                      : header.order;
-    const bool stacked = spec.planes != ProductPlanes::kOne;
-    const std::vector<hsize_t> dims =
-        stacked ? std::vector<hsize_t>{frames, static_cast<hsize_t>(planes), height, width}
-                : std::vector<hsize_t>{frames, height, width};
-    const std::vector<hsize_t> chunk = stacked ? std::vector<hsize_t>{1, 1, height, width}
-                                               : std::vector<hsize_t>{1, height, width};
+    if (!Written(spec.group, header)) continue;
+    const int planes =
+        PlaneCount(spec.planes, static_cast<int>(header.phases.size()), header.order);
+    // Every frame's planes, one image plane per chunk.
+    std::vector<hsize_t> dims = BlockOf(spec, 0, 0, planes, header.geometry).count;
+    dims[0] = static_cast<hsize_t>(header.frames);
+    const std::vector<hsize_t> chunk = BlockOf(spec, 0, 0, 1, header.geometry).count;
     const bool is_flags = spec.product == Product::kFlags;
-    const hid_t file_type = is_flags ? H5T_STD_U8LE : H5T_IEEE_F32LE;
-
-    h5::Id space =
-        h5::Dataspace(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr));
-    h5::Id creation = h5::PropertyList(H5Pcreate(H5P_DATASET_CREATE));
-    const float nan = std::numeric_limits<float>::quiet_NaN();
-    const uint8_t zero = 0;
-    if (H5Pset_chunk(creation.get(), static_cast<int>(chunk.size()), chunk.data()) < 0 ||
-        H5Pset_fill_value(creation.get(), is_flags ? H5T_NATIVE_UINT8 : H5T_NATIVE_FLOAT,
-                          is_flags ? static_cast<const void*>(&zero) : &nan) < 0) {
-      return absl::InternalError(absl::StrCat(path, ": cannot set up chunks of ",
-                                              h5::DimensionsToString(chunk), " for ", spec.path));
+    absl::StatusOr<h5::Id> dataset =
+        h5::CreateDataset(id, spec.path, is_flags ? H5T_STD_U8LE : H5T_IEEE_F32LE,
+                          {.dims = dims,
+                           .chunk = chunk,
+                           .fill_type = is_flags ? H5T_NATIVE_UINT8 : H5T_NATIVE_FLOAT,
+                           .fill = is_flags ? static_cast<const void*>(&zero) : &nan});
+    if (!dataset.ok()) return failed(dataset.status());
+    if (absl::Status written = h5::WriteStringAttribute(dataset->get(), "units", spec.units);
+        !written.ok()) {
+      return failed(written);
     }
-    h5::Id dataset = h5::Dataset(H5Dcreate2(id, spec.path, file_type, space.get(), H5P_DEFAULT,
-                                            creation.get(), H5P_DEFAULT));
-    if (!dataset.valid()) {
-      return absl::InternalError(absl::StrCat(path, ": cannot create dataset ", spec.path));
-    }
-    if (spec.units != nullptr) {
-      if (absl::Status written = h5::WriteStringAttribute(dataset.get(), "units", spec.units);
-          !written.ok()) {
-        return failed(written);
-      }
-    }
-    file.datasets_[Index(spec.product)] = std::move(dataset);
+    file.datasets_[Index(spec.product)] = *std::move(dataset);
     file.planes_[Index(spec.product)] = planes;
   }
   return file;
@@ -162,22 +156,9 @@ absl::Status ReconstructionFile::WritePlanes(Product product, int64_t frame, int
     return absl::InternalError(absl::StrCat(path_, ": ", spec.path, ": bad write of ", values,
                                             " values at frame ", frame, ", plane ", first_plane));
   }
-  const hsize_t height = geometry_.height, width = geometry_.width;
-  const bool stacked = spec.planes != ProductPlanes::kOne;
-  const std::vector<hsize_t> start =
-      stacked ? std::vector<hsize_t>{static_cast<hsize_t>(frame), static_cast<hsize_t>(first_plane),
-                                     0, 0}
-              : std::vector<hsize_t>{static_cast<hsize_t>(frame), 0, 0};
-  const std::vector<hsize_t> extent =
-      stacked ? std::vector<hsize_t>{1, static_cast<hsize_t>(count), height, width}
-              : std::vector<hsize_t>{1, height, width};
-  const hid_t dataset = datasets_[Index(product)].get();
-  h5::Id memory =
-      h5::Dataspace(H5Screate_simple(static_cast<int>(extent.size()), extent.data(), nullptr));
-  h5::Id selection = h5::Dataspace(H5Dget_space(dataset));
-  if (H5Sselect_hyperslab(selection.get(), H5S_SELECT_SET, start.data(), nullptr, extent.data(),
-                          nullptr) < 0 ||
-      H5Dwrite(dataset, memory_type, memory.get(), selection.get(), H5P_DEFAULT, data) < 0) {
+  const ProductBlock block = BlockOf(spec, frame, first_plane, static_cast<int>(count), geometry_);
+  if (!h5::WriteBlock(datasets_[Index(product)].get(), block.start, block.count, memory_type, data)
+           .ok()) {
     return absl::UnavailableError(
         absl::StrCat(path_, ": ", spec.path, ": writing frame ", frame, " failed (disk full?)"));
   }

@@ -1,38 +1,40 @@
 // Layout checks and frame-by-frame hyperslab reads of `transient-reconstruction 1` files.
 #include "transient/formats/reconstruction_reader.h"
 
-#include <cmath>
-#include <limits>
+#include <cstdint>
 #include <numbers>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "transient/formats/moment_file.h"
 #include "transient/formats/format_tag.h"
 #include "transient/reconstruct/moments.h"
 
 namespace transient {
 namespace {
 
-// Whether the file must have `product`: the method decides MESE and Pisarenko products, the
-// bounds are optional (as a pair).
-bool Required(Product product, const std::string& method) {
-  switch (product) {
-    case Product::kRange:
-    case Product::kZerothMoment:
-    case Product::kFlags:
+using h5::Where;
+
+// /flags holds PixelFlag bits in one unsigned byte (not h5py's bool enum, which reads back as
+// no integer type).
+constexpr h5::TypeRule kFlagsType{H5T_INTEGER, 1, "uint8"};
+// /phase_rad is written as float64; float32 reads as well.
+constexpr h5::TypeRule kPhasesType{H5T_FLOAT, 0, "float64"};
+// Bounds of counts in the root attributes, far beyond any file `transient reconstruct` writes,
+// so that a corrupt value is named rather than overflowing.
+constexpr int64_t kMaxBins = int64_t{1} << 20;
+constexpr int64_t kMaxFirstFrame = int64_t{1} << 53;
+
+// Whether a file written with `method` must have the products of `group`; the bounds are
+// optional (as a pair).
+bool Required(ProductGroup group, const std::string& method) {
+  switch (group) {
+    case ProductGroup::kAlways:
       return true;
-    case Product::kDensity:
-    case Product::kCumulative:
+    case ProductGroup::kMese:
       return method != "pisarenko";
-    case Product::kPisarenkoPhase:
-    case Product::kPisarenkoWeight:
-    case Product::kPisarenkoUniform:
-    case Product::kPisarenkoRange:
-    case Product::kPisarenkoDirect:
-    case Product::kPisarenkoIndirect:
+    case ProductGroup::kPisarenko:
       return method != "mese";
-    case Product::kBoundsLower:
-    case Product::kBoundsUpper:
+    case ProductGroup::kBounds:
       return false;
   }
   return false;
@@ -50,27 +52,9 @@ const char* ShapeName(ProductPlanes planes) {
   return "";
 }
 
-absl::StatusOr<int64_t> ReadPositiveInteger(hid_t object, const char* name,
-                                            const std::string& where, int64_t max) {
-  absl::StatusOr<double> value = h5::ReadNumericAttribute(object, name, where);
-  if (!value.ok()) return value.status();
-  if (!(*value >= 1.0 && *value <= static_cast<double>(max)) || std::floor(*value) != *value) {
-    return absl::InvalidArgumentError(absl::StrCat(where, ": attribute ", name,
-                                                   ": expected an integer in 1..", max,
-                                                   ", found ", *value));
-  }
-  return static_cast<int64_t>(*value);
-}
-
 }  // namespace
 
 const char* ProductPath(Product product) { return kProductLayouts[static_cast<int>(product)].path; }
-
-ProductSet Products(std::initializer_list<Product> products) {
-  ProductSet set;
-  for (Product product : products) set.set(static_cast<int>(product));
-  return set;
-}
 
 ProductSet ReconstructionReader::available() const {
   ProductSet set;
@@ -79,132 +63,91 @@ ProductSet ReconstructionReader::available() const {
 }
 
 absl::StatusOr<ReconstructionReader> ReconstructionReader::Open(const std::string& path) {
-  h5::SilenceErrorStack();
-  if (absl::Status readable = h5::CheckReadableFile(path, "an HDF5 reconstruction file");
-      !readable.ok()) {
-    return readable;
-  }
+  absl::StatusOr<h5::Id> file = h5::OpenFileForReading(path, "an HDF5 reconstruction file");
+  if (!file.ok()) return file.status();
   ReconstructionReader reader;
   reader.path_ = path;
-  reader.file_ = h5::File(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
-  if (!reader.file_.valid()) {
-    return absl::DataLossError(
-        absl::StrCat(path, ": HDF5 cannot open the file (corrupt, truncated or locked)"));
-  }
+  reader.file_ = *std::move(file);
   const hid_t id = reader.file_.get();
-  const std::string root = absl::StrCat(path, ": /");
+  const std::string root = Where(path, "/");
 
-  absl::StatusOr<std::string> format = h5::ReadStringAttribute(id, "format", root);
-  if (!format.ok()) return format.status();
-  if (absl::Status tag =
-          CheckFormatTag(*format, kReconstructionFormatName, kReconstructionFormatMajor);
-      !tag.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat(root, ": attribute format: ", tag.message()));
+  if (absl::Status status =
+          ReadFormatAttribute(id, root, kReconstructionFormatName, kReconstructionFormatMajor);
+      !status.ok()) {
+    return status;
   }
-
-  absl::StatusOr<double> frequency = h5::ReadNumericAttribute(id, "base_frequency_hz", root);
+  absl::StatusOr<double> frequency =
+      h5::ReadFiniteAttribute(id, "base_frequency_hz", root, h5::Sign::kPositive);
   if (!frequency.ok()) return frequency.status();
-  if (!std::isfinite(*frequency) || *frequency <= 0.0) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        root, ": attribute base_frequency_hz: expected a finite value > 0, found ", *frequency));
-  }
   reader.base_frequency_hz_ = *frequency;
-  absl::StatusOr<int64_t> order = ReadPositiveInteger(id, "order", root, kMaxOrder);
+  absl::StatusOr<int64_t> order = h5::ReadIntegerAttribute(id, "order", root, 1, kMaxOrder);
   if (!order.ok()) return order.status();
   reader.order_ = static_cast<int>(*order);
-  absl::StatusOr<int64_t> bins = ReadPositiveInteger(id, "bins", root, 1 << 20);
+  absl::StatusOr<int64_t> bins = h5::ReadIntegerAttribute(id, "bins", root, 1, kMaxBins);
   if (!bins.ok()) return bins.status();
   absl::StatusOr<std::string> method = h5::ReadStringAttribute(id, "method", root);
   if (!method.ok()) return method.status();
   if (*method != "mese" && *method != "pisarenko" && *method != "both") {
     return absl::InvalidArgumentError(absl::StrCat(
-        root, ": attribute method: expected 'mese', 'pisarenko' or 'both', found '", *method,
-        "'"));
+        root, ": attribute method: expected 'mese', 'pisarenko' or 'both', found '", *method, "'"));
   }
   reader.method_ = *method;
   if (H5Aexists(id, "threshold") > 0) {
     absl::StatusOr<double> threshold = h5::ReadNumericAttribute(id, "threshold", root);
     if (!threshold.ok()) return threshold.status();
     if (!(*threshold >= 0.0 && *threshold < 1.0)) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          root, ": attribute threshold: expected 0 <= T < 1, found ", *threshold));
+      return absl::InvalidArgumentError(
+          absl::StrCat(root, ": attribute threshold: expected 0 <= T < 1, found ", *threshold));
     }
     reader.threshold_ = *threshold;
   }
   if (H5Aexists(id, "first_frame") > 0) {
-    absl::StatusOr<double> first = h5::ReadNumericAttribute(id, "first_frame", root);
+    absl::StatusOr<int64_t> first =
+        h5::ReadIntegerAttribute(id, "first_frame", root, 0, kMaxFirstFrame);
     if (!first.ok()) return first.status();
-    if (!(*first >= 0.0 && *first < 9.0e15) || std::floor(*first) != *first) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          root, ": attribute first_frame: expected an integer >= 0, found ", *first));
-    }
-    reader.first_frame_ = static_cast<int64_t>(*first);
+    reader.first_frame_ = *first;
   }
 
-  // /range_m fixes frames, height and width for every other dataset.
+  // /range_m, the first of the table, fixes frames, height and width for every other dataset.
   std::vector<hsize_t> frame_shape;
   for (const ProductLayout& spec : kProductLayouts) {
-    const bool present = h5::LinkExists(id, spec.path);
-    if (!present) {
-      if (Required(spec.product, reader.method_)) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            path, ": missing dataset ", spec.path, " (float32 ", ShapeName(spec.planes),
-            ", written for method '", reader.method_, "')"));
+    const int index = static_cast<int>(spec.product);
+    if (!h5::LinkExists(id, spec.path)) {
+      if (Required(spec.group, reader.method_)) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(path, ": missing dataset ", spec.path, " (float32 ",
+                         ShapeName(spec.planes), ", written for method '", reader.method_, "')"));
       }
       continue;
     }
-    absl::StatusOr<h5::Id> dataset = h5::OpenObject(
-        id, path, spec.path, H5I_DATASET, absl::StrCat("dataset ", ShapeName(spec.planes)));
+    const bool stacked = spec.planes != ProductPlanes::kOne;
+    std::vector<hsize_t> dims;
+    absl::StatusOr<h5::Id> dataset = h5::OpenDataset(
+        id, path, spec.path, spec.product == Product::kFlags ? kFlagsType : h5::kAnyFloat,
+        stacked ? 4 : 3, ShapeName(spec.planes), &dims);
     if (!dataset.ok()) return dataset.status();
-    const std::string where = absl::StrCat(path, ": ", spec.path);
-    h5::Id type = h5::Datatype(H5Dget_type(dataset->get()));
-    if (spec.product == Product::kFlags) {
-      if (H5Tget_class(type.get()) != H5T_INTEGER || H5Tget_size(type.get()) != 1) {
+    const std::string where = Where(path, spec.path);
+    if (frame_shape.empty()) {
+      if (dims[0] == 0) {
         return absl::InvalidArgumentError(
-            absl::StrCat(where, ": expected uint8, found ", h5::DescribeType(type.get())));
+            absl::StrCat(where, ": expected at least 1 frame, found 0"));
       }
-    } else if (H5Tget_class(type.get()) != H5T_FLOAT) {
-      return absl::InvalidArgumentError(absl::StrCat(where, ": expected float32 or float64, found ",
-                                                     h5::DescribeType(type.get())));
-    }
-    h5::Id space = h5::Dataspace(H5Dget_space(dataset->get()));
-    const std::vector<hsize_t> dims = h5::Dimensions(space.get());
-    const int planes = spec.planes == ProductPlanes::kOne    ? 1
-                       : spec.planes == ProductPlanes::kBins ? static_cast<int>(*bins)
-                                                      : reader.order_;
-    if (frame_shape.empty()) {  // /range_m, the first of the table
-      if (dims.size() != 3) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            where, ": expected 3 dimensions [frames, height, width], found ", dims.size()));
-      }
-      if (dims[0] == 0 || dims[1] == 0 || dims[2] == 0) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            where, ": expected at least one frame of at least 1x1 px, found ",
-            h5::DimensionsToString(dims)));
-      }
-      if (dims[1] * dims[2] > kMaxImagePixels) {
-        return absl::InvalidArgumentError(absl::StrCat(where, ": expected at most ",
-                                                       kMaxImagePixels, " pixels per image, found ",
-                                                       dims[1], " x ", dims[2]));
+      if (absl::Status status = h5::CheckImageSize(where, dims[1], dims[2]); !status.ok()) {
+        return status;
       }
       frame_shape = dims;
     }
-    const std::vector<hsize_t> expected =
-        spec.planes == ProductPlanes::kOne
-            ? frame_shape
-            : std::vector<hsize_t>{frame_shape[0], static_cast<hsize_t>(planes), frame_shape[1],
-                                   frame_shape[2]};
-    if (dims != expected) {
-      return absl::InvalidArgumentError(absl::StrCat(where, ": expected shape ",
-                                                     ShapeName(spec.planes), " = ",
-                                                     h5::DimensionsToString(expected), ", found ",
-                                                     h5::DimensionsToString(dims)));
-    }
-    if (absl::Status status = h5::CheckFiltersAvailable(dataset->get(), where); !status.ok()) {
+    const ImageGeometry geometry = {.width = static_cast<int>(frame_shape[2]),
+                                    .height = static_cast<int>(frame_shape[1])};
+    const int planes = PlaneCount(spec.planes, static_cast<int>(*bins), reader.order_);
+    std::vector<hsize_t> expected = BlockOf(spec, 0, 0, planes, geometry).count;
+    expected[0] = frame_shape[0];
+    if (absl::Status status = h5::CheckShape(where, dims, expected, ShapeName(spec.planes));
+        !status.ok()) {
       return status;
     }
-    reader.datasets_[static_cast<int>(spec.product)] = *std::move(dataset);
-    reader.planes_[static_cast<int>(spec.product)] = planes;
+    reader.datasets_[index] = *std::move(dataset);
+    reader.planes_[index] = planes;
   }
   reader.frames_ = static_cast<int64_t>(frame_shape[0]);
   reader.geometry_ = {.width = static_cast<int>(frame_shape[2]),
@@ -225,25 +168,20 @@ absl::StatusOr<ReconstructionReader> ReconstructionReader::Open(const std::strin
     reader.bounds_r_ = *r;
   }
   if (reader.has(Product::kDensity) || reader.has(Product::kBoundsLower)) {
-    absl::StatusOr<h5::Id> phases = h5::OpenObject(id, path, "/phase_rad", H5I_DATASET,
-                                                   "dataset /phase_rad (float64, [bins])");
+    std::vector<hsize_t> dims;
+    absl::StatusOr<h5::Id> phases =
+        h5::OpenDataset(id, path, kPhasesPath, kPhasesType, 1, "[bins]", &dims);
     if (!phases.ok()) return phases.status();
-    const std::string where = absl::StrCat(path, ": /phase_rad");
-    h5::Id type = h5::Datatype(H5Dget_type(phases->get()));
-    h5::Id space = h5::Dataspace(H5Dget_space(phases->get()));
-    const std::vector<hsize_t> dims = h5::Dimensions(space.get());
-    if (H5Tget_class(type.get()) != H5T_FLOAT) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(where, ": expected float64, found ", h5::DescribeType(type.get())));
-    }
-    if (dims != std::vector<hsize_t>{static_cast<hsize_t>(*bins)}) {
-      return absl::InvalidArgumentError(absl::StrCat(where, ": expected shape [bins] = [", *bins,
-                                                     "], found ", h5::DimensionsToString(dims)));
+    const std::string where = Where(path, kPhasesPath);
+    if (absl::Status status = h5::CheckShape(where, dims, {static_cast<hsize_t>(*bins)}, "[bins]");
+        !status.ok()) {
+      return status;
     }
     reader.phases_.resize(*bins);
-    if (H5Dread(phases->get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT,
-                reader.phases_.data()) < 0) {
-      return absl::DataLossError(absl::StrCat(where, ": cannot be read (corrupt file?)"));
+    if (absl::Status status =
+            h5::ReadDataset(phases->get(), H5T_NATIVE_DOUBLE, reader.phases_.data(), where);
+        !status.ok()) {
+      return status;
     }
     for (size_t n = 0; n < reader.phases_.size(); ++n) {
       const double phi = reader.phases_[n];
@@ -271,15 +209,20 @@ absl::Status ReconstructionReader::ReadFrame(int64_t frame, ProductSet wanted,
   out->phases = phases_;
   out->bounds_r = bounds_r_;
   std::vector<float>* const float_planes[kProductCount] = {
-      &out->range_m,           &out->c0,
-      nullptr,                 &out->density,
-      &out->cumulative,        &out->pisarenko_phase,
-      &out->pisarenko_weight,  &out->pisarenko_uniform,
-      &out->pisarenko_range_m, &out->pisarenko_direct,
-      &out->pisarenko_indirect, &out->bounds_lower,
+      &out->range_m,
+      &out->c0,
+      nullptr,
+      &out->density,
+      &out->cumulative,
+      &out->pisarenko_phase,
+      &out->pisarenko_weight,
+      &out->pisarenko_uniform,
+      &out->pisarenko_range_m,
+      &out->pisarenko_direct,
+      &out->pisarenko_indirect,
+      &out->bounds_lower,
       &out->bounds_upper,
   };
-  const hsize_t height = geometry_.height, width = geometry_.width;
   const int64_t pixels = geometry_.pixel_count();
   for (const ProductLayout& spec : kProductLayouts) {
     const int index = static_cast<int>(spec.product);
@@ -293,20 +236,12 @@ absl::Status ReconstructionReader::ReadFrame(int64_t frame, ProductSet wanted,
       continue;
     }
     if (!has(spec.product)) {
-      const bool bounds =
-          spec.product == Product::kBoundsLower || spec.product == Product::kBoundsUpper;
+      const bool bounds = spec.group == ProductGroup::kBounds;
       return absl::NotFoundError(
           absl::StrCat(path_, ": has no dataset ", spec.path, " (method '", method_, "'",
                        bounds ? "; transient reconstruct --bounds-r R writes /bounds" : "", ")"));
     }
     const int planes = planes_[index];
-    const bool stacked = spec.planes != ProductPlanes::kOne;
-    const std::vector<hsize_t> start =
-        stacked ? std::vector<hsize_t>{static_cast<hsize_t>(frame), 0, 0, 0}
-                : std::vector<hsize_t>{static_cast<hsize_t>(frame), 0, 0};
-    const std::vector<hsize_t> count =
-        stacked ? std::vector<hsize_t>{1, static_cast<hsize_t>(planes), height, width}
-                : std::vector<hsize_t>{1, height, width};
     void* buffer = nullptr;
     if (is_flags) {
       out->flags.resize(pixels);
@@ -315,14 +250,10 @@ absl::Status ReconstructionReader::ReadFrame(int64_t frame, ProductSet wanted,
       float_planes[index]->resize(planes * pixels);
       buffer = float_planes[index]->data();
     }
-    const hid_t dataset = datasets_[index].get();
-    h5::Id memory =
-        h5::Dataspace(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr));
-    h5::Id selection = h5::Dataspace(H5Dget_space(dataset));
-    if (H5Sselect_hyperslab(selection.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(),
-                            nullptr) < 0 ||
-        H5Dread(dataset, is_flags ? H5T_NATIVE_UINT8 : H5T_NATIVE_FLOAT, memory.get(),
-                selection.get(), H5P_DEFAULT, buffer) < 0) {
+    const ProductBlock block = BlockOf(spec, frame, 0, planes, geometry_);
+    if (!h5::ReadBlock(datasets_[index].get(), block.start, block.count,
+                       is_flags ? H5T_NATIVE_UINT8 : H5T_NATIVE_FLOAT, buffer)
+             .ok()) {
       return absl::DataLossError(
           absl::StrCat(path_, ": ", spec.path, ": cannot read frame ", frame, " (corrupt file?)"));
     }

@@ -17,20 +17,15 @@
 #include "transient/drivers/calibration_capture.h"
 #include "transient/formats/calibration_file.h"
 #include "cycle_queue.h"
-#include "hdf5_lock.h"
 #include "recorder.h"
 #include "transient/drivers/source_registry.h"
+#include "transient/formats/hdf5_lock.h"
 #include "transient/reconstruct/cycle_assembler.h"
 #include "transient/reconstruct/demodulation.h"
 #include "transient/reconstruct/frame_pipeline.h"
 #include "transient/reconstruct/smoothing.h"
 
 namespace transient::service {
-
-absl::Mutex& Hdf5Mutex() {
-  static absl::Mutex* mu = new absl::Mutex();
-  return *mu;
-}
 
 namespace {
 
@@ -733,27 +728,15 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
         absl::StrCat(uri, " does not fit the stream of ", stream_uri, ": ", status.message()));
   }
   if (!output_path.empty()) {
-    // Written under a name of its own, then linked into place: link() refuses an existing
-    // file, so neither a file made meanwhile nor a concurrent Calibrate is replaced.
-    static std::atomic<uint64_t> counter{0};
-    const std::string partial =
-        absl::StrCat(output_path, ".partial.", getpid(), ".", counter.fetch_add(1));
+    // Never replaces a file, neither one made meanwhile nor one of a concurrent Calibrate.
     absl::Status status;
     {
       absl::MutexLock lock(&Hdf5Mutex());
-      status = WriteCalibrationFile(partial, measured->table);
+      status = WriteCalibrationFile(output_path, measured->table, CommitMode::kNeverReplace);
     }
-    if (status.ok() && ::link(partial.c_str(), output_path.c_str()) != 0) {
-      const int error = errno;
-      status = error == EEXIST
-                   ? absl::AlreadyExistsError(absl::StrCat(
-                         "output_path: ", output_path, " exists; a calibration never replaces a file"))
-                   : absl::InternalError(absl::StrCat("output_path: cannot create ", output_path,
-                                                      ": ", std::strerror(error)));
+    if (!status.ok()) {
+      return absl::Status(status.code(), absl::StrCat("output_path: ", status.message()));
     }
-    std::error_code ignored;
-    std::filesystem::remove(partial, ignored);
-    if (!status.ok()) return status;
   }
   if (!keep_current) {
     const std::string origin =

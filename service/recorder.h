@@ -15,7 +15,7 @@
 #include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
-#include "hdf5_lock.h"
+#include "transient/formats/hdf5_lock.h"
 #include "transient/drivers/capture_source.h"
 #include "transient/formats/capture_file.h"
 #include "transient/reconstruct/calibration.h"

@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
+#include <utility>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -16,6 +18,7 @@
 #include "tests/formats/test_captures.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
+#include "transient/formats/atomic_output.h"
 #include "transient/formats/h5.h"
 
 namespace transient {
@@ -83,15 +86,15 @@ TEST(CalibrationFile, InconsistentTableWritesNothing) {
   EXPECT_TRUE(scratch.Entries().empty());
 }
 
-TEST(CalibrationFile, FailedRenameLeavesNoTemporaryFile) {
-  // The final name is a non-empty directory: the temporary file is written, the rename fails
-  // (for root too), and the temporary file must be gone.
+TEST(CalibrationFile, AFinalNameThatIsADirectoryIsRefusedAndNothingIsLeft) {
+  // A rename over a non-empty directory would fail (for root too); the path is refused before
+  // anything is written. A commit that fails after writing is atomic_output_test.cc's.
   ScratchDirectory scratch;
   std::filesystem::create_directory(scratch.File("c.h5"));
   std::ofstream(scratch.File("c.h5/keep")) << "x";
-  EXPECT_FALSE(
-      WriteCalibrationFile(scratch.File("c.h5"), TestCalibration(TestCamera(), TestSchedule()))
-          .ok());
+  EXPECT_THAT(
+      WriteCalibrationFile(scratch.File("c.h5"), TestCalibration(TestCamera(), TestSchedule())),
+      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("c.h5: is a directory")));
   EXPECT_EQ(scratch.Entries(), std::vector<std::string>{"c.h5"});
 }
 
@@ -100,6 +103,48 @@ TEST(CalibrationFile, MissingDirectoryIsNotFound) {
   EXPECT_THAT(WriteCalibrationFile(scratch.File("no/c.h5"),
                                    TestCalibration(TestCamera(), TestSchedule())),
               StatusIs(absl::StatusCode::kNotFound, HasSubstr("no/c.h5")));
+}
+
+std::string FileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+TEST(CalibrationFile, NeverReplaceWritesANewFileAndRefusesAnExistingOne) {
+  ScratchDirectory scratch;
+  const std::string path = scratch.File("c.h5");
+  CalibrationTable table = TestCalibration(TestCamera(), TestSchedule());
+  ASSERT_THAT(WriteCalibrationFile(path, table, CommitMode::kNeverReplace), IsOk());
+  EXPECT_EQ(ReadCalibrationFile(path)->takes_averaged, table.takes_averaged);
+  const std::string written = FileBytes(path);
+
+  table.takes_averaged += 1;
+  EXPECT_THAT(WriteCalibrationFile(path, table, CommitMode::kNeverReplace),
+              StatusIs(absl::StatusCode::kAlreadyExists, HasSubstr("c.h5: exists")));
+  EXPECT_EQ(FileBytes(path), written);  // untouched
+  EXPECT_THAT(scratch.Entries(), ElementsAre("c.h5"));
+  // The default replaces it.
+  ASSERT_THAT(WriteCalibrationFile(path, table), IsOk());
+  EXPECT_EQ(ReadCalibrationFile(path)->takes_averaged, table.takes_averaged);
+  EXPECT_THAT(scratch.Entries(), ElementsAre("c.h5"));
+}
+
+TEST(CalibrationFile, IsWrittenThroughAtomicOutput) {
+  // The refusals of the calibration writer are AtomicOutput::Prepare's, code and message: the
+  // same code decides where the file goes and whether it may replace one.
+  ScratchDirectory scratch;
+  std::filesystem::create_directory(scratch.File("dir"));
+  std::ofstream(scratch.File("taken.h5")) << "x";
+  const CalibrationTable table = TestCalibration(TestCamera(), TestSchedule());
+  for (const auto& [name, mode] :
+       {std::pair{"dir", CommitMode::kReplace}, std::pair{"missing/c.h5", CommitMode::kReplace},
+        std::pair{"taken.h5", CommitMode::kNeverReplace}}) {
+    SCOPED_TRACE(name);
+    const absl::Status expected = AtomicOutput::Prepare(scratch.File(name), mode).status();
+    ASSERT_FALSE(expected.ok());
+    EXPECT_EQ(WriteCalibrationFile(scratch.File(name), table, mode), expected);
+  }
+  EXPECT_THAT(scratch.Entries(), ElementsAre("dir", "taken.h5"));
 }
 
 TEST(CalibrationFile, RefusesBadFilesByName) {

@@ -126,5 +126,42 @@ TEST(ReconstructionFile, HoldsOnlyTheProductsOfTheHeader) {
   EXPECT_THAT(ReadFloatDataset(path, "/pisarenko/indirect"), Each(::testing::IsNan()));
 }
 
+TEST(ReconstructionFile, EachProductHasItsPlanesAndItsBlock) {
+  EXPECT_EQ(PlaneCount(ProductPlanes::kOne, 64, 3), 1);
+  EXPECT_EQ(PlaneCount(ProductPlanes::kBins, 64, 3), 64);
+  EXPECT_EQ(PlaneCount(ProductPlanes::kOrder, 64, 3), 3);
+  const ProductLayout& range = kProductLayouts[static_cast<int>(Product::kRange)];
+  const ProductLayout& density = kProductLayouts[static_cast<int>(Product::kDensity)];
+  // One-plane products are [frames, H, W]; the plane arguments do not apply to them.
+  ProductBlock block = BlockOf(range, 7, 0, 1, kGeometry);
+  EXPECT_THAT(block.start, ElementsAre(7, 0, 0));
+  EXPECT_THAT(block.count, ElementsAre(1, 3, 5));
+  // Stacks are [frames, planes, H, W]: planes 2 and 3 of frame 7.
+  block = BlockOf(density, 7, 2, 2, kGeometry);
+  EXPECT_THAT(block.start, ElementsAre(7, 2, 0, 0));
+  EXPECT_THAT(block.count, ElementsAre(1, 2, 3, 5));
+}
+
+TEST(ReconstructionFile, EveryGroupOfProductsComesWithItsSetting) {
+  for (const ProductLayout& layout : kProductLayouts) {
+    SCOPED_TRACE(layout.path);
+    const std::string path = layout.path;
+    switch (layout.group) {
+      case ProductGroup::kAlways:
+        EXPECT_EQ(path.find('/', 1), std::string::npos);  // at the root
+        break;
+      case ProductGroup::kMese:
+        EXPECT_EQ(layout.planes, ProductPlanes::kBins);
+        break;
+      case ProductGroup::kPisarenko:
+        EXPECT_EQ(path.rfind("/pisarenko/", 0), 0u);
+        break;
+      case ProductGroup::kBounds:
+        EXPECT_EQ(path.rfind("/bounds/", 0), 0u);
+        break;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace transient::tools

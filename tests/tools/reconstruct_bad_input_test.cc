@@ -16,6 +16,7 @@
 #include "absl/strings/match.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
+#include "tests/support/unprivileged.h"
 #include "tests/formats/test_files.h"
 #include "tools/transient/exit_status.h"
 #include "tools/transient/reconstruct_command.h"
@@ -356,28 +357,14 @@ TEST(ReconstructBadInput, UnreadableFileIsReportedAsSuch) {
   testing::WriteSmallMomentFile(dir.File("in.h5"));
   std::filesystem::permissions(dir.File("in.h5"), std::filesystem::perms::none);
   const ReconstructArgs args{.input_path = dir.File("in.h5"), .output_path = dir.File("out.h5")};
-  if (::geteuid() != 0) {
-    EXPECT_THAT(RunReconstruct(args).status(),
-                StatusIs(absl::StatusCode::kPermissionDenied, HasSubstr("in.h5: cannot be read")));
-  } else {
-    // Root reads every file: check in a child process that has dropped to user nobody.
-    std::filesystem::permissions(
-        dir.path(), std::filesystem::perms::owner_all | std::filesystem::perms::others_exec);
-    const pid_t child = ::fork();
-    ASSERT_GE(child, 0);
-    if (child == 0) {
-      constexpr uid_t kNobody = 65534;
-      if (::setgid(kNobody) != 0 || ::setuid(kNobody) != 0) ::_exit(3);
-      const absl::Status status = RunReconstruct(args).status();
-      const bool expected = status.code() == absl::StatusCode::kPermissionDenied &&
-                            absl::StrContains(status.message(), "in.h5: cannot be read");
-      ::_exit(expected ? 0 : 1);
-    }
-    int wait_status = 0;
-    ASSERT_EQ(::waitpid(child, &wait_status, 0), child);
-    ASSERT_TRUE(WIFEXITED(wait_status));
-    EXPECT_EQ(WEXITSTATUS(wait_status), 0) << "1: wrong status, 3: could not drop to nobody";
-  }
+  // Root reads every file: the check runs as user nobody then.
+  ::transient::testing::AllowOthersIn(dir.path().string());
+  EXPECT_EQ(::transient::testing::RunUnprivileged([&] {
+              const absl::Status status = RunReconstruct(args).status();
+              return status.code() == absl::StatusCode::kPermissionDenied &&
+                     absl::StrContains(status.message(), "in.h5: cannot be read");
+            }),
+            "");
   EXPECT_THAT(dir.Entries(), ElementsAre("in.h5"));
 }
 

@@ -16,10 +16,11 @@
 #include "absl/strings/str_join.h"
 #include "transient/formats/moment_file.h"
 #include "transient/formats/moment_file_writer.h"
-#include "transient/formats/temporary_output.h"
+#include "transient/formats/atomic_output.h"
 #include "transient/drivers/calibration_capture.h"
 #include "transient/formats/calibration_file.h"
 #include "transient/formats/capture_file.h"
+#include "transient/formats/file_format.h"
 #include "transient/drivers/capture_source.h"
 #include "transient/formats/h5.h"
 #include "transient/drivers/simulator.h"
@@ -192,8 +193,10 @@ absl::Status CalibrateArgs::Validate() const {
 absl::StatusOr<CalibrateSummary> RunCalibrate(const CalibrateArgs& args,
                                               const CommandHooks& hooks) {
   if (absl::Status status = args.Validate(); !status.ok()) return status;
-  absl::StatusOr<TemporaryOutput> output = TemporaryOutput::Prepare(args.output_path);
-  if (!output.ok()) return output.status();
+  // The output path is checked before the measurement, not written until it is complete.
+  if (absl::Status status = AtomicOutput::Prepare(args.output_path).status(); !status.ok()) {
+    return status;
+  }
   absl::StatusOr<std::unique_ptr<CaptureSource>> opened = OpenSource(args.source_uri);
   if (!opened.ok()) return opened.status();
   CaptureSource& source = **opened;
@@ -208,11 +211,10 @@ absl::StatusOr<CalibrateSummary> RunCalibrate(const CalibrateArgs& args,
   }
   if (!measured.ok()) return measured.status();
   const CalibrationTable& table = measured->table;
-  if (absl::Status status = WriteCalibrationFile(output->temporary_path(), table); !status.ok()) {
+  if (Cancelled(hooks)) return absl::CancelledError("interrupted; no calibration written");
+  if (absl::Status status = WriteCalibrationFile(args.output_path, table); !status.ok()) {
     return status;
   }
-  if (Cancelled(hooks)) return absl::CancelledError("interrupted; no calibration written");
-  if (absl::Status status = output->Commit(); !status.ok()) return status;
 
   CalibrateSummary summary{.output_path = args.output_path,
                            .takes_averaged = table.takes_averaged,
@@ -279,7 +281,7 @@ absl::StatusOr<MomentsSummary> RunMoments(const MomentsArgs& args, const Command
   }
   if (!pipeline.ok()) return pipeline.status();
 
-  absl::StatusOr<TemporaryOutput> output = TemporaryOutput::Prepare(args.output_path);
+  absl::StatusOr<AtomicOutput> output = AtomicOutput::Prepare(args.output_path);
   if (!output.ok()) return output.status();
   absl::StatusOr<MomentFileWriter> writer = MomentFileWriter::Create(
       output->temporary_path(),
@@ -288,7 +290,7 @@ absl::StatusOr<MomentsSummary> RunMoments(const MomentsArgs& args, const Command
                        .zeroth = schedule.options().zeroth, .source = args.capture_path,
                        .calibration = summary.calibration,
                        .smoothing_sigma_px = args.smoothing_sigma_px});
-  if (!writer.ok()) return writer.status();
+  if (!writer.ok()) return WithFinalPath(writer.status(), args.output_path);
   absl::StatusOr<CycleAssembler> assembler = CycleAssembler::Create(schedule, geometry);
   if (!assembler.ok()) return assembler.status();
 
@@ -328,7 +330,9 @@ absl::StatusOr<MomentsSummary> RunMoments(const MomentsArgs& args, const Command
     summary.raw_frames_rejected += static_cast<int64_t>(report.rejected.size());
     summary.filled_pixels += report.filled_pixels;
     summary.saturated_pixels += report.saturated_pixels;
-    if (absl::Status status = writer->Append(moments, cycle_start_s); !status.ok()) return status;
+    if (absl::Status status = writer->Append(moments, cycle_start_s); !status.ok()) {
+      return WithFinalPath(status, args.output_path);
+    }
     ++summary.frames_written;
     Progress(hooks, i + 1, capture->frames());
   }
@@ -345,7 +349,9 @@ absl::StatusOr<MomentsSummary> RunMoments(const MomentsArgs& args, const Command
         " raw frames (", schedule.raw_frames_per_frame(), " make one: ", schedule.Describe(),
         ")", summary.problems.empty() ? "" : absl::StrCat("; ", summary.problems.front())));
   }
-  if (absl::Status status = writer->Close(); !status.ok()) return status;
+  if (absl::Status status = writer->Close(); !status.ok()) {
+    return WithFinalPath(status, args.output_path);
+  }
   if (Cancelled(hooks)) return absl::CancelledError("interrupted; no moment file written");
   if (absl::Status status = output->Commit(); !status.ok()) return status;
   return summary;
@@ -465,7 +471,10 @@ absl::StatusOr<std::string> DescribeMoments(const std::string& path) {
       file->has_flags() ? "yes" : "no");
 }
 
-absl::StatusOr<std::string> DescribeReconstruction(const std::string& path, hid_t file) {
+absl::StatusOr<std::string> DescribeReconstruction(const std::string& path) {
+  absl::StatusOr<h5::Id> opened = h5::OpenFileForReading(path, "an HDF5 reconstruction file");
+  if (!opened.ok()) return opened.status();
+  const hid_t file = opened->get();
   std::string text = absl::StrCat(path, ": reconstruction (transient-reconstruction 1)");
   for (const char* attribute : {"method", "zeroth", "source"}) {
     absl::StatusOr<std::string> value = h5::ReadStringAttribute(file, attribute, path);
@@ -490,45 +499,26 @@ absl::StatusOr<std::string> DescribeReconstruction(const std::string& path, hid_
 }  // namespace
 
 absl::StatusOr<std::string> DescribeFile(const std::string& path) {
-  h5::SilenceErrorStack();
-  std::error_code error;
-  if (!std::filesystem::exists(path, error)) {
-    return absl::NotFoundError(absl::StrCat(path, ": no such file"));
-  }
-  if (H5Fis_hdf5(path.c_str()) <= 0) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": not an HDF5 file"));
-  }
-  h5::Id file = h5::File(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
-  if (!file.valid()) {
-    // A recording killed while being written keeps SWMR's marks; its reader opens it anyway.
-    absl::StatusOr<std::string> capture = DescribeCapture(path);
-    if (capture.ok()) return capture;
-    return absl::DataLossError(
-        absl::StrCat(path, ": HDF5 cannot open the file (corrupt, truncated or locked)"));
-  }
-  absl::StatusOr<std::string> format = h5::ReadStringAttribute(file.get(), "format", path);
-  if (!format.ok()) {
+  absl::StatusOr<FileIdentity> file = IdentifyFile(path);
+  if (!file.ok()) return file.status();
+  if (!file->named.has_value()) {
     return absl::InvalidArgumentError(absl::StrCat(
-        path, ": an HDF5 file without a format attribute, not a file of this project"));
+        path, ": format '", file->text,
+        "' is none of transient-capture, transient-calibration, transient-moments, "
+        "transient-reconstruction"));
   }
-  const std::string name = format->substr(0, format->find(' '));
-  if (name == kCaptureFormatName) {
-    file = h5::Id();
-    return DescribeCapture(path);
+  // By name: the reader of that format says what is wrong with another version.
+  switch (*file->named) {
+    case FileFormat::kCapture:
+      return DescribeCapture(path);
+    case FileFormat::kCalibration:
+      return DescribeCalibration(path);
+    case FileFormat::kMoments:
+      return DescribeMoments(path);
+    case FileFormat::kReconstruction:
+      return DescribeReconstruction(path);
   }
-  if (name == "transient-calibration") {
-    file = h5::Id();
-    return DescribeCalibration(path);
-  }
-  if (name == kMomentFormatName) {
-    file = h5::Id();
-    return DescribeMoments(path);
-  }
-  if (name == "transient-reconstruction") return DescribeReconstruction(path, file.get());
-  return absl::InvalidArgumentError(absl::StrCat(
-      path, ": format '", *format,
-      "' is none of transient-capture, transient-calibration, transient-moments, "
-      "transient-reconstruction"));
+  return absl::InternalError(absl::StrCat(path, ": unknown file format"));
 }
 
 }  // namespace transient::tools

@@ -9,7 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "transient/formats/temporary_output.h"
+#include "transient/formats/atomic_output.h"
 
 namespace transient::tools {
 
@@ -53,7 +53,7 @@ absl::Status WritePly(const std::string& path, const PointCloud& cloud, PlyForma
     return absl::InternalError(absl::StrCat(path, ": ", cloud.colours.size(), " colours for ",
                                             cloud.points.size(), " points"));
   }
-  absl::StatusOr<TemporaryOutput> output = TemporaryOutput::Prepare(path);
+  absl::StatusOr<AtomicOutput> output = AtomicOutput::Prepare(path);
   if (!output.ok()) return output.status();
 
   std::string text = absl::StrCat(

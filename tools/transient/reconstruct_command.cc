@@ -15,10 +15,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "absl/strings/str_replace.h"
 #include "transient/formats/moment_file.h"
 #include "transient/formats/reconstruction_file.h"
-#include "transient/formats/temporary_output.h"
+#include "transient/formats/atomic_output.h"
 
 namespace transient::tools {
 namespace {
@@ -335,7 +334,7 @@ absl::StatusOr<ReconstructSummary> ReconstructFile(const ReconstructArgs& given_
         args.input_path, input->geometry().width, input->geometry().height, input->order(),
         needed / 1073741824.0, available / 1073741824.0));
   }
-  absl::StatusOr<TemporaryOutput> output = TemporaryOutput::Prepare(args.output_path);
+  absl::StatusOr<AtomicOutput> output = AtomicOutput::Prepare(args.output_path);
   if (!output.ok()) return output.status();
 
   ReconstructionHeader header{
@@ -405,7 +404,7 @@ absl::StatusOr<ReconstructSummary> RunReconstruct(const ReconstructArgs& args,
                                                   const ReconstructHooks& hooks) {
   absl::StatusOr<ReconstructSummary> result;
   // Exceptions (an allocation that fails, a library that throws) unwind through
-  // ReconstructFile, so its TemporaryOutput removes the partial file; they become statuses.
+  // ReconstructFile, so its AtomicOutput removes the partial file; they become statuses.
   try {
     result = ReconstructFile(args, hooks);
   } catch (const std::bad_alloc&) {
@@ -417,9 +416,7 @@ absl::StatusOr<ReconstructSummary> RunReconstruct(const ReconstructArgs& args,
   }
   if (result.ok()) return result;
   // Messages about the output name the file the user asked for, not its temporary name.
-  const std::string temporary = absl::StrCat(args.output_path, ".tmp-", ::getpid());
-  return absl::Status(result.status().code(), absl::StrReplaceAll(result.status().message(),
-                                                                  {{temporary, args.output_path}}));
+  return WithFinalPath(result.status(), args.output_path);
 }
 
 }  // namespace transient::tools

@@ -28,14 +28,10 @@
 #include "transient/formats/reconstruction_reader.h"
 #include "tools/transient/video_file.h"
 #include "transient/formats/capture_file.h"
-#include "transient/formats/format_tag.h"
-#include "transient/formats/h5.h"
+#include "transient/formats/file_format.h"
 
 namespace transient::tools {
 namespace {
-
-constexpr char kCaptureFormatName[] = "transient-capture";
-constexpr int kCaptureFormatMajor = 1;
 
 // A directory under the system's temporary directory, removed with its contents.
 class TemporaryDirectory {
@@ -62,25 +58,6 @@ class TemporaryDirectory {
   explicit TemporaryDirectory(std::filesystem::path path) : path_(std::move(path)) {}
   std::filesystem::path path_;
 };
-
-// The root attribute `format` of an HDF5 file (a capture still being written opens too).
-absl::StatusOr<std::string> ReadFormat(const std::string& path) {
-  h5::SilenceErrorStack();
-  if (absl::Status readable =
-          h5::CheckReadableFile(path, "an HDF5 reconstruction, moment or capture file");
-      !readable.ok()) {
-    return readable;
-  }
-  h5::Id file = h5::File(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
-  if (!file.valid()) {
-    file = h5::File(H5Fopen(path.c_str(), H5F_ACC_RDONLY | H5F_ACC_SWMR_READ, H5P_DEFAULT));
-  }
-  if (!file.valid()) {
-    return absl::DataLossError(
-        absl::StrCat(path, ": HDF5 cannot open the file (corrupt, truncated or locked)"));
-  }
-  return h5::ReadStringAttribute(file.get(), "format", absl::StrCat(path, ": /"));
-}
 
 absl::Status InFile(const std::string& file, const absl::Status& status) {
   return absl::Status(status.code(), absl::StrCat(file, ": ", status.message()));
@@ -628,11 +605,9 @@ absl::StatusOr<ViewSummary> View(const ViewArgs& args, const CommandHooks& hooks
   const auto start_time = std::chrono::steady_clock::now();
   if (absl::Status status = args.Validate(); !status.ok()) return status;
   if (IsDaemonInput(args.input_path)) return ViewDaemon(args, hooks);
-  absl::StatusOr<std::string> format = ReadFormat(args.input_path);
-  if (!format.ok()) return format.status();
-  const auto is = [&](absl::string_view name, int major) {
-    return CheckFormatTag(*format, name, major).ok();
-  };
+  absl::StatusOr<FileIdentity> input =
+      IdentifyFile(args.input_path, "an HDF5 reconstruction, moment or capture file");
+  if (!input.ok()) return input.status();
   ViewSummary summary{.input_path = args.input_path, .output_dir = args.output_dir};
 
   // A moment or capture file is reconstructed into a temporary reconstruction file first.
@@ -640,15 +615,14 @@ absl::StatusOr<ViewSummary> View(const ViewArgs& args, const CommandHooks& hooks
   std::string reconstruction_path = args.input_path;
   std::optional<PinholeIntrinsics> input_intrinsics;
   bool frames_selected = false;  // the reconstruction holds only the frames asked for
-  if (is(kReconstructionFormatName, kReconstructionFormatMajor)) {
+  if (input->Is(FileFormat::kReconstruction)) {
     summary.input_kind = "reconstruction";
-  } else if (is(kMomentFormatName, kMomentFormatMajor) ||
-             is(kCaptureFormatName, kCaptureFormatMajor)) {
+  } else if (input->Is(FileFormat::kMoments) || input->Is(FileFormat::kCapture)) {
     absl::StatusOr<std::unique_ptr<TemporaryDirectory>> directory = TemporaryDirectory::Create();
     if (!directory.ok()) return directory.status();
     temporary = *std::move(directory);
     std::string moments_path = args.input_path;
-    if (is(kCaptureFormatName, kCaptureFormatMajor)) {
+    if (input->Is(FileFormat::kCapture)) {
       summary.input_kind = "capture";
       absl::StatusOr<CaptureReader> capture = CaptureReader::Open(args.input_path);
       if (!capture.ok()) return capture.status();
@@ -688,7 +662,7 @@ absl::StatusOr<ViewSummary> View(const ViewArgs& args, const CommandHooks& hooks
     return absl::InvalidArgumentError(absl::StrCat(
         args.input_path, ": /: attribute format: expected '", kReconstructionFormatName, " ",
         kReconstructionFormatMajor, "', '", kMomentFormatName, " ", kMomentFormatMajor, "' or '",
-        kCaptureFormatName, " ", kCaptureFormatMajor, "', found '", *format, "'"));
+        kCaptureFormatName, " ", kCaptureFormatMajor, "', found '", input->text, "'"));
   }
 
   absl::StatusOr<ReconstructionReader> reader = ReconstructionReader::Open(reconstruction_path);

@@ -24,15 +24,23 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "transient/formats/atomic_output.h"
 #include "transient/reconstruct/calibration.h"
 
 namespace transient {
 
-// Writes `table` to `path` atomically: into "<path>.tmp-<pid>", then renamed over `path`, so
-// that a failure or a crash leaves either the old file or the new one, never half of one.
-// InvalidArgument for an inconsistent table (sizes, order, schedule), PermissionDenied /
-// NotFound when the directory cannot be written, Internal when HDF5 fails.
-absl::Status WriteCalibrationFile(const std::string& path, const CalibrationTable& table);
+inline constexpr char kCalibrationFormatName[] = "transient-calibration";
+inline constexpr int kCalibrationFormatMajor = 1;
+
+// Writes `table` to `path` atomically (AtomicOutput): under a temporary name beside it, put in
+// place only when complete, so that a failure or a crash leaves either the old file or the new
+// one, never half of one, and no temporary file. kReplace replaces an existing file;
+// kNeverReplace refuses one, found at the start or made meanwhile (AlreadyExists), and leaves
+// it untouched. InvalidArgument for an inconsistent table (sizes, order, schedule) or a path
+// that is a directory, NotFound / PermissionDenied when the directory is missing or cannot be
+// written, Internal when HDF5 fails.
+absl::Status WriteCalibrationFile(const std::string& path, const CalibrationTable& table,
+                                  CommitMode mode = CommitMode::kReplace);
 
 // Reads and validates a calibration file. NotFound, PermissionDenied, InvalidArgument (not
 // HDF5, another format, a wrong layout: the message names the object and the rule), DataLoss

@@ -17,9 +17,6 @@ namespace transient {
 inline constexpr char kMomentFormatName[] = "transient-moments";
 inline constexpr int kMomentFormatMajor = 1;
 
-// The largest image a moment file may hold (2^28 = 16384 x 16384 pixels).
-inline constexpr uint64_t kMaxImagePixels = uint64_t{1} << 28;
-
 class MomentFile {
  public:
   // Opens `path` and checks the whole layout (format, datasets, types, shapes, attributes)

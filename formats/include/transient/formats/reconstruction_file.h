@@ -43,29 +43,44 @@ inline constexpr int kProductCount = 13;
 // order (the m Pisarenko returns).
 enum class ProductPlanes { kOne, kBins, kOrder };
 
+// Which settings a product comes with: always, with MESE (method mese or both), with
+// Pisarenko (method pisarenko or both), or with bounds (bounds_r set; optional for a reader).
+enum class ProductGroup { kAlways, kMese, kPisarenko, kBounds };
+
 // Where and how a product is stored: the one place that names the datasets, shared by the
 // writer and the reader; README.md documents the same table.
 struct ProductLayout {
   Product product;
   const char* path;
   ProductPlanes planes;
+  ProductGroup group;
   const char* units;  // the dataset's `units` attribute (units.h)
 };
 
 inline constexpr std::array<ProductLayout, kProductCount> kProductLayouts = {{
-    {Product::kRange, "/range_m", ProductPlanes::kOne, units::kMetres},
-    {Product::kZerothMoment, "/c0", ProductPlanes::kOne, units::kSensor},
-    {Product::kFlags, "/flags", ProductPlanes::kOne, units::kBits},
-    {Product::kDensity, "/density", ProductPlanes::kBins, units::kSensorPerRadian},
-    {Product::kCumulative, "/cumulative", ProductPlanes::kBins, units::kSensor},
-    {Product::kPisarenkoPhase, "/pisarenko/phase", ProductPlanes::kOrder, units::kRadians},
-    {Product::kPisarenkoWeight, "/pisarenko/weight", ProductPlanes::kOrder, units::kSensor},
-    {Product::kPisarenkoUniform, "/pisarenko/uniform", ProductPlanes::kOne, units::kSensor},
-    {Product::kPisarenkoRange, "/pisarenko/range_m", ProductPlanes::kOne, units::kMetres},
-    {Product::kPisarenkoDirect, "/pisarenko/direct", ProductPlanes::kOne, units::kSensor},
-    {Product::kPisarenkoIndirect, "/pisarenko/indirect", ProductPlanes::kOne, units::kSensor},
-    {Product::kBoundsLower, "/bounds/lower", ProductPlanes::kBins, units::kSensorPerRadian},
-    {Product::kBoundsUpper, "/bounds/upper", ProductPlanes::kBins, units::kSensorPerRadian},
+    {Product::kRange, "/range_m", ProductPlanes::kOne, ProductGroup::kAlways, units::kMetres},
+    {Product::kZerothMoment, "/c0", ProductPlanes::kOne, ProductGroup::kAlways, units::kSensor},
+    {Product::kFlags, "/flags", ProductPlanes::kOne, ProductGroup::kAlways, units::kBits},
+    {Product::kDensity, "/density", ProductPlanes::kBins, ProductGroup::kMese,
+     units::kSensorPerRadian},
+    {Product::kCumulative, "/cumulative", ProductPlanes::kBins, ProductGroup::kMese,
+     units::kSensor},
+    {Product::kPisarenkoPhase, "/pisarenko/phase", ProductPlanes::kOrder, ProductGroup::kPisarenko,
+     units::kRadians},
+    {Product::kPisarenkoWeight, "/pisarenko/weight", ProductPlanes::kOrder,
+     ProductGroup::kPisarenko, units::kSensor},
+    {Product::kPisarenkoUniform, "/pisarenko/uniform", ProductPlanes::kOne,
+     ProductGroup::kPisarenko, units::kSensor},
+    {Product::kPisarenkoRange, "/pisarenko/range_m", ProductPlanes::kOne, ProductGroup::kPisarenko,
+     units::kMetres},
+    {Product::kPisarenkoDirect, "/pisarenko/direct", ProductPlanes::kOne, ProductGroup::kPisarenko,
+     units::kSensor},
+    {Product::kPisarenkoIndirect, "/pisarenko/indirect", ProductPlanes::kOne,
+     ProductGroup::kPisarenko, units::kSensor},
+    {Product::kBoundsLower, "/bounds/lower", ProductPlanes::kBins, ProductGroup::kBounds,
+     units::kSensorPerRadian},
+    {Product::kBoundsUpper, "/bounds/upper", ProductPlanes::kBins, ProductGroup::kBounds,
+     units::kSensorPerRadian},
 }};
 
 constexpr bool ProductLayoutsAreInEnumOrder() {
@@ -75,6 +90,22 @@ constexpr bool ProductLayoutsAreInEnumOrder() {
   return true;
 }
 static_assert(ProductLayoutsAreInEnumOrder(), "kProductLayouts is indexed by Product");
+
+// float64 [bins]: the phases of the bins planes (density, cumulative, bounds), rad.
+inline constexpr char kPhasesPath[] = "/phase_rad";
+
+// Planes per frame of a product in a file of `bins` bins and order m.
+int PlaneCount(ProductPlanes planes, int bins, int order);
+
+// The block of a product's dataset that holds planes [first_plane, first_plane + planes) of
+// frame `frame`: its start and its count, [frame, H, W]-shaped for one-plane products and
+// [frame, planes, H, W]-shaped for stacks.
+struct ProductBlock {
+  std::vector<hsize_t> start;
+  std::vector<hsize_t> count;
+};
+ProductBlock BlockOf(const ProductLayout& layout, int64_t frame, int first_plane, int planes,
+                     ImageGeometry geometry);
 
 // What a file holds and the settings recorded in its root attributes.
 struct ReconstructionHeader {
