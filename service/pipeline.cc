@@ -1,73 +1,27 @@
 #include "transient/service/pipeline.h"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <atomic>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <set>
 #include <utility>
 
-#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "transient/drivers/calibration_capture.h"
-#include "transient/formats/calibration_file.h"
 #include "cycle_queue.h"
+#include "live_calibration.h"
 #include "recorder.h"
 #include "transient/drivers/source_registry.h"
 #include "transient/formats/hdf5_lock.h"
 #include "transient/reconstruct/cycle_assembler.h"
-#include "transient/reconstruct/demodulation.h"
 #include "transient/reconstruct/frame_pipeline.h"
-#include "transient/reconstruct/smoothing.h"
 
 namespace transient::service {
 
 namespace {
 
 constexpr absl::Duration kNextTimeout = absl::Milliseconds(100);
-
-// The source of a Calibrate RPC: each call holds the HDF5 mutex only for itself (a replay reads
-// HDF5), so the stream goes on meanwhile; Next fails with Cancelled once the client went away
-// or the pipeline stops, so that neither waits for a calibration that cannot finish.
-class CalibrationSource final : public CaptureSource {
- public:
-  CalibrationSource(std::unique_ptr<CaptureSource> inner, std::function<bool()> cancelled)
-      : inner_(std::move(inner)), cancelled_(std::move(cancelled)) {}
-  const std::string& uri() const override { return inner_->uri(); }
-  const CameraInfo& camera() const override { return inner_->camera(); }
-  const AcquisitionSchedule& schedule() const override { return inner_->schedule(); }
-  SourceCapabilities capabilities() const override { return inner_->capabilities(); }
-  absl::Status Start() override {
-    absl::MutexLock lock(&Hdf5Mutex());
-    return inner_->Start();
-  }
-  absl::Status Stop() override {
-    absl::MutexLock lock(&Hdf5Mutex());
-    return inner_->Stop();
-  }
-  absl::Status Next(absl::Duration timeout, RawFrame* frame) override {
-    // Short waits, so that cancellation is noticed within kNextTimeout.
-    const absl::Time end = absl::Now() + timeout;
-    while (true) {
-      if (cancelled_()) return absl::CancelledError("calibration cancelled");
-      absl::Status status;
-      {
-        absl::MutexLock lock(&Hdf5Mutex());
-        status = inner_->Next(std::min(kNextTimeout, end - absl::Now()), frame);
-      }
-      if (!absl::IsDeadlineExceeded(status) || absl::Now() >= end) return status;
-    }
-  }
-
- private:
-  std::unique_ptr<CaptureSource> inner_;
-  std::function<bool()> cancelled_;
-};
 
 }  // namespace
 
@@ -705,39 +659,20 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
     return absl::AlreadyExistsError(
         absl::StrCat("output_path: ", output_path, " exists; a calibration never replaces a file"));
   }
-  std::unique_ptr<CaptureSource> opened_source;
-  {
-    absl::MutexLock lock(&Hdf5Mutex());  // a replay source reads HDF5 when opened
-    SourceOpener open = impl_->options.open_source
-                            ? impl_->options.open_source
-                            : [](const std::string& u) { return transient::OpenSource(u); };
-    absl::StatusOr<std::unique_ptr<CaptureSource>> opened = open(uri);
-    if (!opened.ok()) return opened.status();
-    opened_source = *std::move(opened);
-  }
-  CalibrationSource source(std::move(opened_source), [this, &cancelled] {
-    return impl_->stopping.load() || (cancelled && cancelled());
-  });
-  absl::StatusOr<CalibrationCapture> measured =
-      CaptureCalibration(source, takes, {.on_take = on_take});
+  const SourceOpener open = impl_->options.open_source
+                                ? impl_->options.open_source
+                                : [](const std::string& u) { return transient::OpenSource(u); };
+  absl::StatusOr<CalibrationOutcome> measured = MeasureLiveCalibration(
+      {.source_uri = uri,
+       .takes = takes,
+       .output_path = output_path,
+       .stream_uri = stream_uri,
+       .stream_schedule = schedule->options(),
+       .stream_geometry = impl_->camera.geometry},
+      open, on_take, [this, &cancelled] {
+        return impl_->stopping.load() || (cancelled && cancelled());
+      });
   if (!measured.ok()) return measured.status();
-  if (absl::Status status = CheckCalibrationMatches(measured->table, schedule->options(),
-                                                    impl_->camera.geometry);
-      !status.ok()) {
-    return absl::FailedPreconditionError(
-        absl::StrCat(uri, " does not fit the stream of ", stream_uri, ": ", status.message()));
-  }
-  if (!output_path.empty()) {
-    // Never replaces a file, neither one made meanwhile nor one of a concurrent Calibrate.
-    absl::Status status;
-    {
-      absl::MutexLock lock(&Hdf5Mutex());
-      status = WriteCalibrationFile(output_path, measured->table, CommitMode::kNeverReplace);
-    }
-    if (!status.ok()) {
-      return absl::Status(status.code(), absl::StrCat("output_path: ", status.message()));
-    }
-  }
   if (!keep_current) {
     const std::string origin =
         output_path.empty() ? absl::StrCat("measured from ", uri) : output_path;
@@ -748,9 +683,7 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
     }
     impl_->Log(absl::StrCat("calibration: now ", origin));
   }
-  return CalibrationOutcome{.table = std::move(measured->table),
-                            .frames_rejected = measured->frames_rejected,
-                            .usable_pixels = measured->usable_pixels};
+  return measured;
 }
 
 absl::StatusOr<RecordingStatus> Pipeline::StartRecording(const std::string& path,
