@@ -2,10 +2,11 @@
 BUILD_DIR ?= build
 ASAN_DIR ?= build-asan
 JOBS ?= $(shell nproc)
+PREFIX ?= /usr/local
 CMAKE_FLAGS ?=
 BENCH_ARGS ?=
 
-.PHONY: deps build test demo demo-files pictures eval bench clean
+.PHONY: deps build install test demo demo-files pictures eval bench clean
 
 deps:
 	bash tools/install_deps.sh
@@ -13,6 +14,11 @@ deps:
 build: deps
 	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_TESTS=OFF $(CMAKE_FLAGS)
 	cmake --build $(BUILD_DIR) -j $(JOBS)
+
+# transientd and transient into PREFIX/bin, and the C++ client library with its headers and
+# CMake package (find_package(transient), target transient::client; client/README.md).
+install: build
+	cmake --install $(BUILD_DIR) --prefix $(PREFIX)
 
 # All tests: the whole suite once under ASan + UBSan (Clang, thread-safety analysis, warnings as
 # errors), then the tests that need an optimised build in GCC Release; prints each phase's time.

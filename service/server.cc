@@ -17,6 +17,7 @@
 #include "transient/reconstruct/physical_constants.h"
 #include "transient/wire/grpc_status.h"
 #include "transient/wire/image_codec.h"
+#include "transient/wire/product_registry.h"
 #include "transient/v1/transient.grpc.pb.h"
 
 namespace transient::service {
@@ -29,6 +30,10 @@ using ::transient::wire::ResolveRoi;
 using ::transient::wire::CheckEncoding;
 using ::transient::wire::EncodeBytePlane;
 using ::transient::wire::EncodeMomentDepth;
+using ::transient::wire::ImageKind;
+
+// What the daemon refuses and what clients are told it refuses are one number.
+static_assert(wire::kMaxSlices == kMaxSlices);
 
 constexpr int kDefaultSlices = 64;
 constexpr int kDefaultQueueFrames = 4;
@@ -55,10 +60,11 @@ google::protobuf::Timestamp ToTimestamp(absl::Time t) {
   return out;
 }
 
+// The enum names of the products the registry knows: RANGE, DEPTH, ...
 std::string ValidProductNames() {
   std::vector<std::string> names;
-  for (int p = v1::Product_MIN + 1; p <= v1::Product_MAX; ++p) {
-    if (v1::Product_IsValid(p)) names.push_back(v1::Product_Name(static_cast<v1::Product>(p)));
+  for (const wire::ProductSpec& spec : wire::Products()) {
+    names.push_back(v1::Product_Name(spec.product));
   }
   return absl::StrJoin(names, ", ");
 }
@@ -81,7 +87,7 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
         absl::StrCat("products: expected at least one of ", ValidProductNames()));
   }
   for (int p : r.products()) {
-    if (!v1::Product_IsValid(p) || p == v1::PRODUCT_UNSPECIFIED) {
+    if (wire::FindProduct(static_cast<v1::Product>(p)) == nullptr) {
       return absl::InvalidArgumentError(absl::StrCat("products: unknown product ", p,
                                                      "; expected ", ValidProductNames()));
     }
@@ -133,14 +139,8 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
   // A client that stops reading holds its queue: bound what that can keep alive.
   int64_t planes = 0;
   for (v1::Product product : plan.products) {
-    switch (product) {
-      case v1::MOMENT_STATE: planes += 4 * (pipeline.schedule().order() + 1); break;
-      case v1::SLICES:
-      case v1::CUMULATIVE: planes += static_cast<int64_t>(plan.request.slice_phases.size()); break;
-      case v1::DIRECT_INDIRECT: planes += 2; break;
-      case v1::MOMENT_DEPTH: planes += 4; break;
-      default: planes += 1;
-    }
+    planes += wire::PlanesPerFrame(product, pipeline.schedule().order(),
+                                   static_cast<int>(plan.request.slice_phases.size()));
   }
   const int64_t frame_bytes = planes * sensor.pixel_count() * 4;
   if (frame_bytes * plan.queue_frames > kMaxQueueBytes) {
@@ -153,11 +153,18 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
   return plan;
 }
 
+// Names an encoded image of `kind` (index: its slice or harmonic) as the registry says.
+void Label(ImageKind kind, int index, v1::Image* image) {
+  image->set_name(wire::ImageName(kind, index));
+  image->set_product(wire::Image(kind).product);
+  image->set_unit(wire::WireUnit(kind, image->encoding()));
+}
+
 // Adds one float plane as an image; false when the frame lacks it (asked for after the frame's
 // products were chosen).
 absl::StatusOr<bool> AddFloat(const StreamPlan& plan, const FrameProducts& products,
-                              std::span<const float> plane, v1::Product product, std::string name,
-                              const char* unit, v1::Frame* frame, double time_ns = 0.0) {
+                              std::span<const float> plane, ImageKind kind, v1::Frame* frame,
+                              int index = 0, double time_ns = 0.0) {
   if (plane.size() != static_cast<size_t>(products.geometry.pixel_count())) return false;
   v1::Image* image = frame->add_images();
   if (absl::Status status = EncodeFloatPlane(plane, products.geometry, plan.rect, plan.encoding,
@@ -165,12 +172,8 @@ absl::StatusOr<bool> AddFloat(const StreamPlan& plan, const FrameProducts& produ
       !status.ok()) {
     return status;
   }
-  image->set_name(std::move(name));
-  image->set_product(product);
-  image->set_unit(plan.encoding == v1::UINT16_MM ? "mm" : unit);
-  if (time_ns != 0.0 || product == v1::SLICES || product == v1::CUMULATIVE) {
-    image->set_time_of_flight_ns(time_ns);
-  }
+  Label(kind, index, image);
+  image->set_time_of_flight_ns(time_ns);  // 0 (proto3: not sent) for all but slices
   return true;
 }
 
@@ -182,17 +185,16 @@ absl::StatusOr<bool> EncodeProducts(const StreamPlan& plan, const FrameProducts&
     absl::StatusOr<bool> added = true;
     switch (product) {
       case v1::RANGE:
-        added = AddFloat(plan, products, products.range_m, product, "range", "m", frame);
+        added = AddFloat(plan, products, products.range_m, ImageKind::kRange, frame);
         break;
       case v1::DEPTH:
-        added = AddFloat(plan, products, products.depth_m, product, "depth", "m", frame);
+        added = AddFloat(plan, products, products.depth_m, ImageKind::kDepth, frame);
         break;
       case v1::AMPLITUDE:
-        added = AddFloat(plan, products, products.amplitude, product, "amplitude", "sensor",
-                         frame);
+        added = AddFloat(plan, products, products.amplitude, ImageKind::kAmplitude, frame);
         break;
       case v1::C0:
-        added = AddFloat(plan, products, products.c0, product, "c0", "sensor", frame);
+        added = AddFloat(plan, products, products.c0, ImageKind::kC0, frame);
         break;
       case v1::FLAGS: {
         v1::Image* image = frame->add_images();
@@ -201,27 +203,24 @@ absl::StatusOr<bool> EncodeProducts(const StreamPlan& plan, const FrameProducts&
             !status.ok()) {
           return status;
         }
-        image->set_name("flags");
-        image->set_product(product);
-        image->set_unit("bits");
+        Label(ImageKind::kFlags, 0, image);
         break;
       }
       case v1::MOMENT_STATE: {
         const SolvedImage& s = *products.solved;
         std::vector<float> plane(pixels);
         auto add_plane = [&](const std::vector<double>& source, int j,
-                             const char* name) -> absl::StatusOr<bool> {
+                             ImageKind kind) -> absl::StatusOr<bool> {
           for (size_t p = 0; p < pixels; ++p) {
             plane[p] = static_cast<float>(source[j * pixels + p]);
           }
-          return AddFloat(plan, products, plane, product, absl::StrCat(name, "/", j),
-                          name[0] == 'c' ? "sensor" : "1/sensor", frame);
+          return AddFloat(plan, products, plane, kind, frame, j);
         };
         for (int j = 0; j <= s.order && added.ok(); ++j) {
-          added = add_plane(s.c_real, j, "c_real");
-          if (added.ok() && j > 0) added = add_plane(s.c_imag, j, "c_imag");
-          if (added.ok()) added = add_plane(s.q_real, j, "q_real");
-          if (added.ok()) added = add_plane(s.q_imag, j, "q_imag");
+          added = add_plane(s.c_real, j, ImageKind::kCReal);
+          if (added.ok() && j > 0) added = add_plane(s.c_imag, j, ImageKind::kCImag);
+          if (added.ok()) added = add_plane(s.q_real, j, ImageKind::kQReal);
+          if (added.ok()) added = add_plane(s.q_imag, j, ImageKind::kQImag);
         }
         break;
       }
@@ -235,18 +234,17 @@ absl::StatusOr<bool> EncodeProducts(const StreamPlan& plan, const FrameProducts&
         if (planes.size() != phases.size() * pixels) return false;
         for (size_t n = 0; n < phases.size() && added.ok() && *added; ++n) {
           added = AddFloat(plan, products,
-                           std::span<const float>(planes).subspan(n * pixels, pixels), product,
-                           absl::StrCat(product == v1::SLICES ? "slices/" : "cumulative/", n),
-                           product == v1::SLICES ? "sensor/rad" : "sensor", frame,
+                           std::span<const float>(planes).subspan(n * pixels, pixels),
+                           product == v1::SLICES ? ImageKind::kSlice : ImageKind::kCumulative,
+                           frame, static_cast<int>(n),
                            PhaseToTimeOfFlightNs(phases[n], products.base_frequency_hz));
         }
         break;
       }
       case v1::DIRECT_INDIRECT:
-        added = AddFloat(plan, products, products.direct, product, "direct", "sensor", frame);
+        added = AddFloat(plan, products, products.direct, ImageKind::kDirect, frame);
         if (added.ok() && *added) {
-          added =
-              AddFloat(plan, products, products.indirect, product, "indirect", "sensor", frame);
+          added = AddFloat(plan, products, products.indirect, ImageKind::kIndirect, frame);
         }
         break;
       case v1::MOMENT_DEPTH: {
@@ -259,9 +257,7 @@ absl::StatusOr<bool> EncodeProducts(const StreamPlan& plan, const FrameProducts&
             !status.ok()) {
           return status;
         }
-        image->set_name("moment_depth");
-        image->set_product(product);
-        image->set_unit("1");
+        Label(ImageKind::kMomentDepth, 0, image);
         break;
       }
       default:

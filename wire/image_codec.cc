@@ -9,8 +9,11 @@
 #include <cmath>
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "transient/wire/product_registry.h"
 
 namespace transient::wire {
 namespace {
@@ -174,29 +177,27 @@ absl::Status CheckEncoding(v1::Product product, v1::Encoding encoding) {
         absl::StrCat("encoding=", EncodingEnumName(encoding), " for product ",
                      ProductName(product), ". Violated constraint: FLOAT32, FLOAT16 or UINT16_MM"));
   }
-  switch (product) {
-    case v1::RANGE:
-    case v1::DEPTH:
-    case v1::FLAGS:         // always 8UC1; the requested encoding is ignored
-    case v1::MOMENT_DEPTH:  // 16UC4 or 32FC4 by MomentDepthRequest.bits; likewise
-      return absl::OkStatus();
-    case v1::AMPLITUDE:
-    case v1::C0:
-    case v1::MOMENT_STATE:
-    case v1::SLICES:
-    case v1::CUMULATIVE:
-    case v1::DIRECT_INDIRECT:
-      if (encoding == v1::UINT16_MM) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            "encoding=UINT16_MM for product ", ProductName(product),
-            ". Violated constraint: UINT16_MM (millimetres) only for the lengths RANGE and DEPTH"));
-      }
-      return absl::OkStatus();
-    default:
-      return absl::InvalidArgumentError(
-          absl::StrCat("product=", ProductName(product),
-                       ". Violated constraint: one of RANGE..MOMENT_DEPTH"));
+  const ProductSpec* spec = FindProduct(product);
+  if (spec == nullptr) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("product=", ProductName(product), ". Violated constraint: one of ",
+                     ProductName(Products().front().product), "..",
+                     ProductName(Products().back().product)));
   }
+  // FLAGS and MOMENT_DEPTH have encodings of their own and ignore the one requested.
+  if (encoding != v1::UINT16_MM || spec->encodings != EncodingRule::kFloat) {
+    return absl::OkStatus();
+  }
+  std::vector<std::string> lengths;
+  for (const ProductSpec& other : Products()) {
+    if (other.encodings == EncodingRule::kFloatOrMillimetres) {
+      lengths.push_back(ProductName(other.product));
+    }
+  }
+  return absl::InvalidArgumentError(absl::StrCat(
+      "encoding=UINT16_MM for product ", ProductName(product),
+      ". Violated constraint: UINT16_MM (millimetres) only for the lengths ",
+      absl::StrJoin(lengths, " and ")));
 }
 
 const char* EncodingName(v1::Encoding encoding) {

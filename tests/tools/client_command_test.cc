@@ -1,22 +1,17 @@
 // `transient client`: option validation, percentiles, an unreachable daemon, whole runs against
 // the real daemon (pipeline and gRPC server in this process, on a loopback port), and a fake
-// service only for what the real daemon cannot be made to do.
+// service only for what the real daemon cannot be made to do. The connection itself is the
+// client library's, tested in tests/client.
 #include "tools/transient/client_command.h"
 
-#include <arpa/inet.h>
 #include <gmock/gmock.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <atomic>
 #include <bit>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -29,12 +24,16 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
+#include "tests/client/fake_transient.h"
 #include "tests/service/daemon_fixture.h"
-#include "tests/tools/image_readers.h"
+#include "tests/support/network.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
+#include "tests/support/subprocess.h"
+#include "tests/tools/image_readers.h"
 #include "tools/transient/image_writers.h"
 #include "transient/formats/capture_file.h"
 #include "transient/drivers/capture_source.h"
@@ -51,6 +50,7 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::Not;
 using ::testing::UnorderedElementsAreArray;
+using ::transient::testing::ClosedPort;
 using ::transient::testing::IsOk;
 using ::transient::testing::ScratchDirectory;
 using ::transient::testing::StatusIs;
@@ -211,35 +211,6 @@ TEST(Percentile, FloatsOfAThousandValuesGiveTheRankedValue) {
   for (int i = 0; i < 1000; ++i) values[i] = static_cast<float>((i * 367) % 1000);
   EXPECT_NEAR(Percentile(std::span<float>(values), 99.5), 994.005, 1e-9);
   EXPECT_NEAR(Percentile(std::span<float>(values), 50.0), 499.5, 1e-9);
-}
-
-// A loopback port that nothing listens on: bound, read, and closed again.
-int ClosedPort() {
-  const int socket_fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  address.sin_port = 0;
-  EXPECT_EQ(::bind(socket_fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
-  socklen_t length = sizeof(address);
-  EXPECT_EQ(::getsockname(socket_fd, reinterpret_cast<sockaddr*>(&address), &length), 0);
-  ::close(socket_fd);
-  return ntohs(address.sin_port);
-}
-
-TEST(RunClient, NothingListeningIsUnavailableWithinTheConnectTimeout) {
-  ScratchDirectory dir;
-  ClientArgs args = GoodArgs(dir.File("out"));
-  args.connect = absl::StrCat("127.0.0.1:", ClosedPort());
-  args.connect_timeout_s = 0.5;
-  const auto start = std::chrono::steady_clock::now();
-  const absl::StatusOr<ClientSummary> summary = RunClient(args);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  EXPECT_THAT(summary.status(),
-              StatusIs(absl::StatusCode::kUnavailable,
-                       HasSubstr("cannot reach transientd at " + args.connect + " within 0.5 s")));
-  EXPECT_LT(seconds, 5.0);
 }
 
 TEST(RunClient, InterruptWhileConnectingIsCancelled) {
@@ -585,90 +556,12 @@ TEST(RunClient, SecondsModeStopsWhenTheTimeIsUp) {
 
 // ---- Against a fake service, for what the real daemon cannot be made to do ----
 
-constexpr int kWidth = 4;
-constexpr int kHeight = 3;
-
-// Little-endian bytes of the wire, written out byte by byte (the proto says little endian).
-std::string FloatBytes(const std::vector<float>& values) {
-  std::string bytes;
-  for (const float value : values) {
-    const uint32_t bits = std::bit_cast<uint32_t>(value);
-    for (int shift = 0; shift < 32; shift += 8) bytes.push_back(static_cast<char>(bits >> shift));
-  }
-  return bytes;
-}
-
-// Range of pixel i in frame `sequence`: distinct per frame so that "the last frame" is checked.
-float RangeOf(uint64_t sequence, int i) {
-  return i == 5 ? kNan : 1.0f + 0.01f * static_cast<float>(i) + static_cast<float>(sequence);
-}
-
-v1::Frame RangeFrame(uint64_t sequence) {
-  v1::Frame frame;
-  frame.set_sequence(sequence);
-  frame.set_state(v1::STREAMING);
-  frame.set_latency_s(0.010);
-  std::vector<float> range(kWidth * kHeight);
-  for (int i = 0; i < kWidth * kHeight; ++i) range[i] = RangeOf(sequence, i);
-  v1::Image* image = frame.add_images();
-  image->set_name("range");
-  image->set_product(v1::RANGE);
-  image->set_width(kWidth);
-  image->set_height(kHeight);
-  image->set_encoding("32FC1");
-  image->set_step(kWidth * 4);
-  image->set_data(FloatBytes(range));
-  return frame;
-}
-
-// A fake service: the real daemon cannot be made to send a corrupt image (it encodes every
-// image it sends itself), nor to end a stream cleanly with OK (its streams end only with an
-// error status or the client's cancel). This one sends `frames` range frames, frame number
-// `corrupt_at` with its data truncated, and then ends with OK.
-class CorruptingTransient final : public v1::Transient::Service {
- public:
-  int frames = 3;
-  int corrupt_at = 1;
-
-  grpc::Status GetInfo(grpc::ServerContext*, const v1::GetInfoRequest*, v1::Info* info) override {
-    info->mutable_camera()->set_width(kWidth);
-    info->mutable_camera()->set_height(kHeight);
-    info->set_source_uri("sim:fake");
-    info->set_version("test");
-    info->set_state(v1::STREAMING);
-    return grpc::Status::OK;
-  }
-
-  grpc::Status StreamFrames(grpc::ServerContext* context, const v1::StreamRequest*,
-                            grpc::ServerWriter<v1::Frame>* writer) override {
-    for (int i = 0; i < frames && !context->IsCancelled(); ++i) {
-      v1::Frame frame = RangeFrame(static_cast<uint64_t>(i));
-      if (i == corrupt_at) frame.mutable_images(0)->mutable_data()->resize(7);
-      if (!writer->Write(frame)) break;
-    }
-    return grpc::Status::OK;
-  }
-};
-
-// A fake service's server on a loopback port chosen at run time.
-class FakeDaemon {
- public:
-  explicit FakeDaemon(v1::Transient::Service* service) {
-    grpc::ServerBuilder builder;
-    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port_);
-    builder.RegisterService(service);
-    server_ = builder.BuildAndStart();
-  }
-  ~FakeDaemon() { server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(1)); }
-  std::string address() const { return absl::StrCat("127.0.0.1:", port_); }
-
- private:
-  int port_ = 0;
-  std::unique_ptr<grpc::Server> server_;
-};
+using ::transient::testing::CorruptingTransient;
+using ::transient::testing::FakeDaemon;
+using ::transient::testing::FakeRange;
 
 TEST(RunClient, CorruptFrameIsCountedAndACleanEndIsNotAnError) {
-  CorruptingTransient service;  // a fake: see above
+  CorruptingTransient service;  // a fake: see tests/client/fake_transient.h
   FakeDaemon daemon(&service);
   ScratchDirectory dir;
   ClientArgs args = GoodArgs(dir.File("out"));
@@ -679,7 +572,7 @@ TEST(RunClient, CorruptFrameIsCountedAndACleanEndIsNotAnError) {
   ASSERT_THAT(summary.status(), IsOk());
   EXPECT_EQ(summary->frames, 2);
   EXPECT_EQ(summary->corrupt_frames, 1);
-  EXPECT_EQ(ReadTiff(dir.File("out/range.tiff"))[0], RangeOf(2, 0));
+  EXPECT_EQ(ReadTiff(dir.File("out/range.tiff"))[0], FakeRange(2, 0));
 }
 
 TEST(RunClient, ProductTheDaemonDoesNotOfferIsRefused) {
@@ -705,62 +598,56 @@ TEST(RunClient, ProductTheDaemonDoesNotOfferIsRefused) {
 
 // ---- The built binary ----
 
-struct Result {
-  int exit_code = -1;
-  std::string output;
-};
-
-Result RunBinary(const std::string& arguments) {
-  Result result;
-  const std::string command = absl::StrCat(TRANSIENT_BINARY, " ", arguments, " 2>&1 </dev/null");
-  std::FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  char buffer[4096];
-  size_t read = 0;
-  while ((read = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.output.append(buffer, read);
-  const int status = ::pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
+// The built binary with `arguments` (split at spaces), standard input from /dev/null.
+::transient::testing::ProcessResult RunBinary(const std::string& arguments) {
+  std::vector<std::string> argv = {TRANSIENT_BINARY};
+  for (absl::string_view argument : absl::StrSplit(arguments, ' ', absl::SkipEmpty())) {
+    argv.emplace_back(argument);
+  }
+  return ::transient::testing::RunProcess(argv);
 }
 
 TEST(TransientClientBinary, HelpNamesEveryOptionWithDefaultsAndTheFiles) {
-  const Result result = RunBinary("client --help");
-  EXPECT_EQ(result.exit_code, 0) << result.output;
+  const auto result = RunBinary("client --help");
+  EXPECT_EQ(result.exit_code, 0) << result.err;
   for (const char* text : {"--connect", "127.0.0.1:50051", "--products", "range,slices",
                            "--frames", "30", "--seconds", "--out", "--roi", "--bins", "64",
                            "--encoding", "float32", "--zstd", "--max-rate", "Hz",
                            "--connect-timeout", "depth.png", "range.tiff", "summary.json",
                            "millimetres", "metres", "130"}) {
-    EXPECT_THAT(result.output, HasSubstr(text));
+    EXPECT_THAT(result.out, HasSubstr(text));
   }
 }
 
 TEST(TransientClientBinary, BadProductExitsWithTwoAndOneErrorLine) {
   ScratchDirectory dir;
-  const Result result =
+  const auto result =
       RunBinary(absl::StrCat("client --products range,bogus --out ", dir.File("out")));
   EXPECT_EQ(result.exit_code, 2);
-  EXPECT_EQ(result.output,
+  EXPECT_EQ(result.err,
             "error: --products: unknown product 'bogus'; valid: range, depth, amplitude, c0, "
             "flags, moment_state, slices, cumulative, direct_indirect, moment_depth\n");
+  EXPECT_EQ(result.out, "");
 }
 
 TEST(TransientClientBinary, UnreachableDaemonExitsWithOne) {
   ScratchDirectory dir;
-  const Result result =
-      RunBinary(absl::StrCat("client --connect 127.0.0.1:", ClosedPort(),
-                             " --connect-timeout 0.3 --out ", dir.File("out")));
+  const std::string address = absl::StrCat("127.0.0.1:", ClosedPort());
+  const auto result = RunBinary(
+      absl::StrCat("client --connect ", address, " --connect-timeout 0.3 --out ", dir.File("out")));
   EXPECT_EQ(result.exit_code, 1);
-  EXPECT_THAT(result.output, HasSubstr("error: cannot reach transientd at 127.0.0.1:"));
+  EXPECT_THAT(result.err,
+              HasSubstr("error: cannot reach transientd at " + address + " within 0.3 s"));
 }
 
 TEST(TransientClientBinary, SecondsAloneReplacesTheDefaultFrames) {
   ScratchDirectory dir;
-  const Result result = RunBinary(absl::StrCat("client --seconds 0.2 --connect 127.0.0.1:",
-                                               ClosedPort(), " --connect-timeout 0.3 --out ",
-                                               dir.File("out")));
-  EXPECT_EQ(result.exit_code, 1) << result.output;  // past validation, to the connection
-  EXPECT_THAT(result.output, Not(HasSubstr("exactly one of")));
+  const auto result = RunBinary(absl::StrCat("client --seconds 0.2 --connect 127.0.0.1:",
+                                              ClosedPort(), " --connect-timeout 0.3 --out ",
+                                              dir.File("out")));
+  EXPECT_EQ(result.exit_code, 1) << result.err;  // past validation, to the connection
+  EXPECT_THAT(result.err, Not(HasSubstr("exactly one of")));
+  EXPECT_THAT(result.err, HasSubstr("cannot reach transientd"));
 }
 
 }  // namespace

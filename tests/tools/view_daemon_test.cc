@@ -1,13 +1,9 @@
 // `transient view daemon:ADDR`: frames received from a real transientd (pipeline and gRPC
 // server in this process, on a loopback port) are drawn like a file's, lose nothing on the way,
 // an unreachable daemon is named, and a replay that ends early leaves the frames it sent.
-#include <arpa/inet.h>
 #include <gmock/gmock.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -21,14 +17,15 @@
 #include "absl/strings/str_format.h"
 #include "absl/time/time.h"
 #include "tests/service/daemon_fixture.h"
-#include "tests/tools/image_readers.h"
+#include "tests/support/network.h"
 #include "tests/support/scratch_directory.h"
-#include "tests/support/video_probe.h"
 #include "tests/support/status_matchers.h"
-#include "tools/transient/client_command.h"
+#include "tests/support/video_probe.h"
+#include "tests/tools/image_readers.h"
 #include "tools/transient/daemon_frame_source.h"
 #include "tools/transient/view_command.h"
 #include "transient/formats/capture_file.h"
+#include "transient/client/decoded_image.h"
 #include "transient/drivers/capture_source.h"
 #include "transient/v1/transient.grpc.pb.h"
 
@@ -38,6 +35,9 @@ namespace {
 using service::testing::Daemon;
 using ::testing::AllOf;
 using ::testing::HasSubstr;
+using ::transient::client::DecodedImage;
+using ::transient::client::DecodeFrame;
+using ::transient::testing::ClosedPort;
 using ::transient::testing::IsOk;
 using ::transient::testing::ScratchDirectory;
 using ::transient::testing::StatusIs;
@@ -54,19 +54,6 @@ ViewArgs DaemonArgs(const Daemon& daemon, const ScratchDirectory& dir) {
   args.daemon_frames = 3;
   args.bins = kBins;
   return args;
-}
-
-// A loopback port that nothing listens on (bound, read, closed).
-int ClosedPort() {
-  const int socket_fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  EXPECT_EQ(::bind(socket_fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
-  socklen_t length = sizeof(address);
-  EXPECT_EQ(::getsockname(socket_fd, reinterpret_cast<sockaddr*>(&address), &length), 0);
-  ::close(socket_fd);
-  return ntohs(address.sin_port);
 }
 
 TEST(ViewDaemon, DrawsEveryPictureOfTheFramesReceived) {

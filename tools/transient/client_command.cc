@@ -2,19 +2,14 @@
 // products of its last frame as PNG/TIFF images and summary.json.
 #include "tools/transient/client_command.h"
 
-#include <grpcpp/grpcpp.h>
-
 #include <algorithm>
 #include <atomic>
 #include <cassert>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
-#include <map>
 #include <memory>
-#include <thread>
 #include <utility>
 
 #include "absl/strings/ascii.h"
@@ -23,69 +18,46 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
-#include "absl/synchronization/notification.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "tools/transient/image_writers.h"
-#include "transient/wire/grpc_status.h"
-#include "transient/wire/image_codec.h"
-#include "transient/v1/transient.grpc.pb.h"
+#include "transient/client/client.h"
+#include "transient/client/decoded_image.h"
+#include "transient/client/frame_stream.h"
 #include "transient/v1/transient.pb.h"
+#include "transient/wire/image_codec.h"
+#include "transient/wire/product_registry.h"
 
 namespace transient::tools {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct ProductName {
-  const char* name;
-  v1::Product product;
-};
+using ::transient::client::DecodedImage;
 
-constexpr ProductName kProducts[] = {
-    {"range", v1::RANGE},         {"depth", v1::DEPTH},
-    {"amplitude", v1::AMPLITUDE}, {"c0", v1::C0},
-    {"flags", v1::FLAGS},         {"moment_state", v1::MOMENT_STATE},
-    {"slices", v1::SLICES},       {"cumulative", v1::CUMULATIVE},
-    {"direct_indirect", v1::DIRECT_INDIRECT}, {"moment_depth", v1::MOMENT_DEPTH},
-};
-
-constexpr int kMaxBins = 1024;
 // The slice and cumulative images use this percentile of their finite values as full colour:
 // a few hot pixels (a specular return) do not wash out the rest of the sweep.
 constexpr double kColourScalePercentile = 99.5;
-// How often the stream watcher looks at the cancel flag and the clock.
-constexpr absl::Duration kWatchPeriod = absl::Milliseconds(20);
-// GetInfo answers from memory; anything slower than this is a daemon in trouble.
-constexpr absl::Duration kInfoTimeout = absl::Seconds(10);
 
-std::optional<v1::Product> ProductFromName(const std::string& name) {
-  for (const ProductName& entry : kProducts) {
-    if (name == entry.name) return entry.product;
-  }
-  return std::nullopt;
+// The folder and file stem of a product: its registry name, or product_<n> for a value the
+// registry does not know (a newer daemon's, in GetInfo).
+std::string ProductStem(int product) {
+  const wire::ProductSpec* spec = wire::FindProduct(static_cast<v1::Product>(product));
+  return spec != nullptr ? spec->name : absl::StrCat("product_", product);
 }
 
-// The folder and file stem of a product: its --products name, or product_<n> for a value this
-// client does not know.
-std::string ProductStem(v1::Product product) {
-  for (const ProductName& entry : kProducts) {
-    if (product == entry.product) return entry.name;
-  }
-  return absl::StrCat("product_", static_cast<int>(product));
-}
-
-std::optional<v1::Encoding> EncodingFromName(const std::string& name) {
-  if (name == "float32") return v1::FLOAT32;
-  if (name == "float16") return v1::FLOAT16;
-  if (name == "mm") return v1::UINT16_MM;
-  return std::nullopt;
+std::string EncodingChoiceNames() {
+  std::vector<std::string> names;
+  for (const wire::EncodingChoice& choice : wire::EncodingChoices()) names.push_back(choice.name);
+  const std::string last = names.back();
+  names.pop_back();
+  return absl::StrCat(absl::StrJoin(names, ", "), " or ", last);
 }
 
 std::vector<v1::Product> RequestedProducts(const std::vector<std::string>& names) {
   std::vector<v1::Product> products;
   for (const std::string& name : names) {
-    const v1::Product product = *ProductFromName(name);
+    const v1::Product product = wire::FindProduct(name)->product;
     if (std::find(products.begin(), products.end(), product) == products.end()) {
       products.push_back(product);
     }
@@ -377,107 +349,6 @@ double PercentileOf(std::span<T> values, double percent) {
 
 }  // namespace
 
-absl::StatusOr<std::unique_ptr<v1::Transient::Stub>> ConnectToTransientd(
-    const std::string& address, double timeout_s, const std::atomic<bool>* cancel) {
-  grpc::ChannelArguments channel_arguments;
-  channel_arguments.SetMaxReceiveMessageSize(-1);  // a frame of 64 full-sensor slices is large
-  std::shared_ptr<grpc::Channel> channel = grpc::CreateCustomChannel(
-      address, grpc::InsecureChannelCredentials(), channel_arguments);
-  const absl::Time connect_deadline = absl::Now() + absl::Seconds(timeout_s);
-  while (!channel->WaitForConnected(
-      absl::ToChronoTime(std::min(connect_deadline, absl::Now() + absl::Milliseconds(100))))) {
-    if (cancel != nullptr && cancel->load()) {
-      return absl::CancelledError("interrupted while connecting");
-    }
-    if (absl::Now() >= connect_deadline) {
-      return absl::UnavailableError(
-          absl::StrFormat("cannot reach transientd at %s within %g s", address, timeout_s));
-    }
-  }
-  return v1::Transient::NewStub(channel);
-}
-
-absl::StatusOr<v1::Info> GetTransientdInfo(v1::Transient::Stub& stub,
-                                           const std::string& address) {
-  v1::Info info;
-  grpc::ClientContext context;
-  context.set_deadline(absl::ToChronoTime(absl::Now() + kInfoTimeout));
-  if (grpc::Status status = stub.GetInfo(&context, v1::GetInfoRequest(), &info); !status.ok()) {
-    return Prefixed(absl::StrCat("GetInfo from transientd at ", address, ": "),
-                    wire::FromGrpcStatus(status));
-  }
-  return info;
-}
-
-absl::StatusOr<std::vector<DecodedImage>> DecodeFrame(const v1::Frame& frame) {
-  std::vector<DecodedImage> images;
-  images.reserve(static_cast<size_t>(frame.images_size()));
-  for (const v1::Image& image : frame.images()) {
-    if (image.width() == 0 || image.height() == 0 || image.width() > kMaxImageSide ||
-        image.height() > kMaxImageSide) {
-      return absl::DataLossError(absl::StrCat("image '", image.name(), "' of frame ",
-                                              frame.sequence(), " is ", image.width(), "x",
-                                              image.height(), " px"));
-    }
-    absl::StatusOr<std::vector<float>> values = wire::DecodeImage(image);
-    if (!values.ok()) return values.status();
-    const ImageGeometry geometry{static_cast<int>(image.width()),
-                                 static_cast<int>(image.height())};
-    const int channels = image.product() == v1::MOMENT_DEPTH ? 4 : 1;
-    if (static_cast<int64_t>(values->size()) != channels * geometry.pixel_count()) {
-      return absl::DataLossError(absl::StrCat("image '", image.name(), "' of frame ",
-                                              frame.sequence(), " decodes to ", values->size(),
-                                              " values for ", image.width(), "x",
-                                              image.height(), " px of ", channels,
-                                              channels == 1 ? " value" : " values"));
-    }
-    std::optional<MomentDepthMap> moment_depth;
-    if (image.product() == v1::MOMENT_DEPTH) {
-      absl::StatusOr<MomentDepthMap> map = wire::DecodeMomentDepth(image);
-      if (!map.ok()) {
-        return absl::DataLossError(
-            absl::StrCat("frame ", frame.sequence(), ": ", map.status().message()));
-      }
-      moment_depth = *std::move(map);
-    }
-    images.push_back({.name = image.name(),
-                      .product = image.product(),
-                      .geometry = geometry,
-                      .time_of_flight_ns = image.time_of_flight_ns(),
-                      .values = *std::move(values),
-                      .moment_depth = std::move(moment_depth),
-                      .moment_depth_from_returns = image.moment_depth().from_returns()});
-  }
-  return images;
-}
-
-StreamWatcher::StreamWatcher(grpc::ClientContext* context, const std::atomic<bool>* cancel,
-                             absl::Time deadline)
-    : thread_([this, context, cancel, deadline] { Watch(context, cancel, deadline); }) {}
-
-StreamWatcher::~StreamWatcher() {
-  stop_.Notify();
-  thread_.join();
-}
-
-void StreamWatcher::Watch(grpc::ClientContext* context, const std::atomic<bool>* cancel,
-                          absl::Time deadline) {
-  while (!stop_.WaitForNotificationWithTimeout(
-      std::min(kWatchPeriod, std::max(deadline - absl::Now(), absl::ZeroDuration())))) {
-    Reason reason = Reason::kNone;
-    if (cancel != nullptr && cancel->load()) {
-      reason = Reason::kInterrupted;
-    } else if (absl::Now() >= deadline) {
-      reason = Reason::kTimeUp;
-    }
-    if (reason != Reason::kNone) {
-      reason_.store(reason);
-      context->TryCancel();
-      return;
-    }
-  }
-}
-
 double Percentile(std::span<double> values, double percent) {
   return PercentileOf(values, percent);
 }
@@ -500,32 +371,23 @@ absl::StatusOr<ClientRoi> ParseRoi(const std::string& text) {
   return ClientRoi{.x = values[0], .y = values[1], .width = values[2], .height = values[3]};
 }
 
-const std::vector<std::string>& ClientProductNames() {
-  static const std::vector<std::string>* const names = [] {
-    auto* list = new std::vector<std::string>;
-    for (const ProductName& entry : kProducts) list->push_back(entry.name);
-    return list;
-  }();
-  return *names;
-}
-
 absl::Status ClientArgs::Validate() const {
   if (connect.empty()) {
     return absl::InvalidArgumentError("--connect: expected an address such as 127.0.0.1:50051");
   }
   if (products.empty()) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "--products: expected at least one of ", absl::StrJoin(ClientProductNames(), ", ")));
+        "--products: expected at least one of ", absl::StrJoin(wire::ProductNames(), ", ")));
   }
   std::vector<std::string> unknown;
   for (const std::string& name : products) {
-    if (!ProductFromName(name)) unknown.push_back(absl::StrCat("'", name, "'"));
+    if (wire::FindProduct(name) == nullptr) unknown.push_back(absl::StrCat("'", name, "'"));
   }
   if (!unknown.empty()) {
     return absl::InvalidArgumentError(
         absl::StrCat("--products: unknown product", unknown.size() > 1 ? "s " : " ",
                      absl::StrJoin(unknown, ", "), "; valid: ",
-                     absl::StrJoin(ClientProductNames(), ", ")));
+                     absl::StrJoin(wire::ProductNames(), ", ")));
   }
   if (frames < 0) {
     return absl::InvalidArgumentError(absl::StrCat("--frames = ", frames, ": expected >= 1"));
@@ -543,14 +405,14 @@ absl::Status ClientArgs::Validate() const {
         absl::StrCat("--roi ", roi.x, ",", roi.y, ",", roi.width, ",", roi.height,
                      ": expected width and height both > 0, or both 0 for the whole sensor"));
   }
-  if (bins < 1 || bins > kMaxBins) {
+  if (bins < 1 || bins > wire::kMaxSlices) {
     return absl::InvalidArgumentError(
-        absl::StrCat("--bins = ", bins, ": expected 1..", kMaxBins));
+        absl::StrCat("--bins = ", bins, ": expected 1..", wire::kMaxSlices));
   }
-  const std::optional<v1::Encoding> wire_encoding = EncodingFromName(encoding);
+  const std::optional<v1::Encoding> wire_encoding = wire::FindEncoding(encoding);
   if (!wire_encoding) {
     return absl::InvalidArgumentError(
-        absl::StrCat("--encoding '", encoding, "': expected float32, float16 or mm"));
+        absl::StrCat("--encoding '", encoding, "': expected ", EncodingChoiceNames()));
   }
   for (const v1::Product product : RequestedProducts(products)) {
     if (absl::Status status = wire::CheckEncoding(product, *wire_encoding); !status.ok()) {
@@ -612,10 +474,10 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   summary.address = args.connect;
   summary.output_dir = args.output_dir;
 
-  absl::StatusOr<std::unique_ptr<v1::Transient::Stub>> stub =
-      ConnectToTransientd(args.connect, args.connect_timeout_s, hooks.cancel);
-  if (!stub.ok()) return stub.status();
-  absl::StatusOr<v1::Info> got_info = GetTransientdInfo(**stub, args.connect);
+  absl::StatusOr<client::Client> daemon = client::Client::Connect(
+      {.address = args.connect, .timeout_s = args.connect_timeout_s, .cancel = hooks.cancel});
+  if (!daemon.ok()) return daemon.status();
+  absl::StatusOr<v1::Info> got_info = daemon->GetInfo();
   if (!got_info.ok()) return got_info.status();
   const v1::Info& info = *got_info;
   summary.source_uri = info.source_uri();
@@ -634,7 +496,7 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
     if (!missing.empty()) {
       std::vector<std::string> offered;
       for (const int product : info.products()) {
-        offered.push_back(ProductStem(static_cast<v1::Product>(product)));
+        offered.push_back(ProductStem(product));
       }
       return absl::InvalidArgumentError(absl::StrCat(
           "--products ", absl::StrJoin(missing, ","), ": not offered by transientd at ",
@@ -649,7 +511,7 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   request.mutable_roi()->set_width(static_cast<uint32_t>(args.roi.width));
   request.mutable_roi()->set_height(static_cast<uint32_t>(args.roi.height));
   request.set_max_rate_hz(args.max_rate_hz);
-  request.set_encoding(*EncodingFromName(args.encoding));
+  request.set_encoding(*wire::FindEncoding(args.encoding));
   request.set_compression(args.zstd ? v1::ZSTD : v1::COMPRESSION_NONE);
   request.mutable_slices()->set_bins(static_cast<uint32_t>(args.bins));
   if (Contains(products, v1::MOMENT_DEPTH)) {
@@ -665,59 +527,42 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
       args.frames > 0 ? args.frames : std::numeric_limits<int64_t>::max();  // else --seconds
   std::vector<double> latencies_ms;
   std::vector<DecodedImage> last_images;
-  int64_t frames_with_images = 0;
   absl::Time first_arrival, last_arrival;
   const absl::Time opened = absl::Now();
-  grpc::Status stream_status;
-  bool stopped_here = false;  // we cancelled the call: its CANCELLED status is ours
-  bool interrupted = false;
-  {
-    grpc::ClientContext context;
-    std::unique_ptr<grpc::ClientReader<v1::Frame>> reader =
-        (*stub)->StreamFrames(&context, request);
-    StreamWatcher watcher(&context, hooks.cancel,
-                          args.seconds > 0.0 ? opened + absl::Seconds(args.seconds)
-                                             : absl::InfiniteFuture());
-    v1::Frame frame;
-    while (frames_with_images < target && !Cancelled(hooks) && reader->Read(&frame)) {
-      const absl::Time arrival = absl::Now();
-      summary.frames_missed += frame.missed();
-      if (frame.images_size() == 0) {
-        ++summary.state_announcements;
-        summary.state_changes.push_back(
-            {.after_frames = summary.frames, .state = v1::SourceState_Name(frame.state())});
+  std::unique_ptr<client::FrameStream> stream = daemon->StreamFrames(
+      request, {.cancel = hooks.cancel,
+                .deadline = args.seconds > 0.0 ? opened + absl::Seconds(args.seconds)
+                                               : absl::InfiniteFuture()});
+  // Frames with images, corrupt ones included: they count towards --frames as they arrive.
+  const auto received = [&stream] {
+    return stream->counts().frames + stream->counts().corrupt;
+  };
+  client::StreamFrame frame;
+  while (received() < target && !Cancelled(hooks) && stream->Next(&frame)) {
+    switch (frame.kind) {
+      case client::StreamFrame::Kind::kAnnouncement:
+        summary.state_changes.push_back({.after_frames = stream->counts().frames,
+                                         .state = v1::SourceState_Name(frame.state)});
         continue;
-      }
-      ++frames_with_images;
-      absl::StatusOr<std::vector<DecodedImage>> images = DecodeFrame(frame);
-      if (!images.ok()) {
-        ++summary.corrupt_frames;
-        if (hooks.on_progress) hooks.on_progress(frames_with_images, args.frames);
-        continue;
-      }
-      last_images = *std::move(images);
-      if (summary.frames == 0) first_arrival = arrival;
-      last_arrival = arrival;
-      ++summary.frames;
-      if (frame.has_publish_time() && std::isfinite(frame.latency_s())) {
-        const absl::Time published = absl::FromUnixSeconds(frame.publish_time().seconds()) +
-                                     absl::Nanoseconds(frame.publish_time().nanos());
-        latencies_ms.push_back(1e3 * frame.latency_s() +
-                               absl::ToDoubleMilliseconds(arrival - published));
-      }
-      if (hooks.on_progress) hooks.on_progress(frames_with_images, args.frames);
+      case client::StreamFrame::Kind::kCorrupt:
+        break;  // dropped; counted by the stream
+      case client::StreamFrame::Kind::kImages:
+        last_images = std::move(frame.images);
+        if (stream->counts().frames == 1) first_arrival = frame.arrival;
+        last_arrival = frame.arrival;
+        if (std::isfinite(frame.latency_s)) latencies_ms.push_back(1e3 * frame.latency_s);
+        break;
     }
-    if (watcher.reason() == StreamWatcher::Reason::kNone) {
-      stopped_here = frames_with_images >= target || Cancelled(hooks);
-      if (stopped_here) context.TryCancel();
-    } else {
-      stopped_here = true;
-    }
-    while (reader->Read(&frame)) {
-    }  // drain what was in flight before Finish
-    stream_status = reader->Finish();
-    interrupted = watcher.reason() == StreamWatcher::Reason::kInterrupted || Cancelled(hooks);
+    if (hooks.on_progress) hooks.on_progress(received(), args.frames);
   }
+  // OK when the daemon ended it cleanly or we did (enough frames, --seconds); Cancelled when
+  // interrupted; otherwise the daemon's status.
+  const absl::Status end = stream->Finish();
+  const bool interrupted = Cancelled(hooks);
+  summary.frames = stream->counts().frames;
+  summary.corrupt_frames = stream->counts().corrupt;
+  summary.state_announcements = stream->counts().announcements;
+  summary.frames_missed = stream->counts().missed;
   summary.interrupted = interrupted;
   summary.seconds = absl::ToDoubleSeconds((summary.frames > 0 ? last_arrival : absl::Now()) -
                                           opened);
@@ -735,8 +580,8 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
     summary.latency.max_ms = Percentile(std::span<double>(latencies_ms), 100.0);
   }
   absl::Status stream_error;
-  if (!stream_status.ok() && !(stopped_here && stream_status.error_code() == grpc::CANCELLED)) {
-    stream_error = wire::FromGrpcStatus(stream_status);
+  if (!end.ok() && !(interrupted && end.code() == absl::StatusCode::kCancelled)) {
+    stream_error = end;
     summary.stream_error = std::string(stream_error.message());
   }
 

@@ -2,26 +2,15 @@
 // rate and latency, and writes the products of the last frame as images plus a JSON summary.
 #pragma once
 
-#include <grpcpp/client_context.h>
-
-#include <atomic>
 #include <cstdint>
-#include <memory>
 #include <optional>
 #include <span>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "absl/synchronization/notification.h"
-#include "absl/time/time.h"
 #include "tools/transient/capture_commands.h"
-#include "transient/reconstruct/image.h"
-#include "transient/reconstruct/moment_depth_map.h"
-#include "transient/v1/transient.grpc.pb.h"
-#include "transient/v1/transient.pb.h"
 
 namespace transient::tools {
 
@@ -36,20 +25,16 @@ struct ClientRoi {
 // "X,Y,W,H" (four non-negative integers). InvalidArgument naming --roi otherwise.
 [[nodiscard]] absl::StatusOr<ClientRoi> ParseRoi(const std::string& text);
 
-// The product names of --products, in the order of the wire enum: range, depth, amplitude, c0,
-// flags, moment_state, slices, cumulative, direct_indirect, moment_depth.
-const std::vector<std::string>& ClientProductNames();
-
 // `transient client [--connect ADDR] --products range,slices --frames N --out DIR`.
 struct ClientArgs {
   std::string connect = "127.0.0.1:50051";  // gRPC target: host:port, or unix:PATH
-  std::vector<std::string> products = {"range", "slices"};  // ClientProductNames()
+  std::vector<std::string> products = {"range", "slices"};  // wire::ProductNames()
   int64_t frames = 30;   // frames with images to receive; 0 = --seconds decides
   double seconds = 0.0;  // wall-clock seconds to receive for; 0 = --frames decides
   std::string output_dir = {};  // created if missing
   ClientRoi roi = {};
-  int bins = 64;                    // slices uniform over one period, 1..1024
-  std::string encoding = "float32";  // float32 | float16 | mm (range and depth only)
+  int bins = 64;                    // slices uniform over one period, 1..wire::kMaxSlices
+  std::string encoding = "float32";  // wire::EncodingChoices(): float32 | float16 | mm
   bool zstd = false;                 // ask for zstd-compressed images
   double max_rate_hz = 0.0;          // at most this many frames a second; 0 = every frame
   double connect_timeout_s = 5.0;    // how long to wait for the daemon, > 0
@@ -116,11 +101,11 @@ struct ClientSummary {
   std::string stream_error = {};  // how the stream ended when it failed
 };
 
-// Connects to transientd at args.connect (Unavailable "cannot reach transientd at ADDR within
-// 5 s" when it does not answer in connect_timeout_s), calls GetInfo, then StreamFrames, and
-// receives frames until args.frames frames with images arrived or args.seconds passed. Each
-// image of each frame is decoded (DecodeImage); a frame with an undecodable image is counted in
-// corrupt_frames and skipped. Then writes into output_dir the products of the last good frame
+// Connects to transientd at args.connect with the client library (client::Client: Unavailable
+// "cannot reach transientd at ADDR within 5 s" when it does not answer in connect_timeout_s),
+// calls GetInfo, then StreamFrames, and receives frames until args.frames frames with images
+// arrived or args.seconds passed. Each image of each frame is decoded (client::DecodeFrame); a
+// frame with an undecodable image is counted in corrupt_frames and skipped. Then writes into output_dir the products of the last good frame
 // (images of products that were not asked for are ignored):
 //   depth.png (16-bit mm, 0 = invalid)          DEPTH
 //   range.tiff (float m, NaN = none)            RANGE; also range_mm.png when DEPTH was not asked
@@ -135,7 +120,7 @@ struct ClientSummary {
 //   summary.json                                always, even after an error
 // The colour scale of a series is the 99.5th percentile of its finite values (1 when none is
 // positive), so that the series reads as a video of the light sweeping through the scene.
-// A stream that ends with an error returns that status (FromGrpcStatus, prefixed) after the
+// A stream that ends with an error returns the daemon's status (prefixed) after the
 // files are written; one that the daemon ends cleanly is a summary. On hooks.cancel the files of
 // what was received are written and Cancelled is returned. Progress: frames received of
 // args.frames (total 0 with --seconds).
@@ -151,58 +136,5 @@ std::string FormatClientSummary(const ClientSummary& summary);
 // values. Reorders `values`; NaN inside is not allowed (asserted in debug builds).
 double Percentile(std::span<double> values, double percent);
 double Percentile(std::span<float> values, double percent);
-
-// ---- The daemon connection, shared by `transient client` and `transient view daemon:ADDR` ----
-
-// Images wider or taller than this are not from a sensor: DecodeFrame refuses the frame.
-inline constexpr uint32_t kMaxImageSide = 1 << 15;
-
-// Opens a channel to transientd at `address` (host:port or unix:PATH; no limit on the size of
-// a received message) and waits until it connects. Unavailable "cannot reach transientd at
-// ADDR within T s" when it does not within `timeout_s`; Cancelled when *cancel turns true.
-[[nodiscard]] absl::StatusOr<std::unique_ptr<v1::Transient::Stub>> ConnectToTransientd(
-    const std::string& address, double timeout_s, const std::atomic<bool>* cancel);
-
-// GetInfo with a deadline; a failure is prefixed "GetInfo from transientd at ADDR: ".
-[[nodiscard]] absl::StatusOr<v1::Info> GetTransientdInfo(v1::Transient::Stub& stub,
-                                                         const std::string& address);
-
-// An image of a frame, decoded to floats in its product's SI unit (flags: 0..255).
-struct DecodedImage {
-  std::string name;
-  v1::Product product = v1::PRODUCT_UNSPECIFIED;
-  ImageGeometry geometry;
-  double time_of_flight_ns = 0.0;
-  std::vector<float> values;  // one per pixel; MOMENT_DEPTH: four per pixel, interleaved
-  std::optional<MomentDepthMap> moment_depth = std::nullopt;  // MOMENT_DEPTH only
-  bool moment_depth_from_returns = false;
-};
-
-// Every image of `frame` decoded (wire::DecodeImage, and wire::DecodeMomentDepth for
-// MOMENT_DEPTH). DataLoss naming the image and the frame when one is empty, larger than
-// kMaxImageSide, or does not decode to width x height pixels.
-[[nodiscard]] absl::StatusOr<std::vector<DecodedImage>> DecodeFrame(const v1::Frame& frame);
-
-// Cancels a stream from a second thread when *cancel turns true or `deadline` passes: a
-// blocking Read() only returns when a frame arrives or the call ends.
-class StreamWatcher {
- public:
-  enum class Reason { kNone, kInterrupted, kTimeUp };
-
-  StreamWatcher(grpc::ClientContext* context, const std::atomic<bool>* cancel,
-                absl::Time deadline);
-  StreamWatcher(const StreamWatcher&) = delete;
-  StreamWatcher& operator=(const StreamWatcher&) = delete;
-  ~StreamWatcher();
-
-  Reason reason() const { return reason_.load(); }
-
- private:
-  void Watch(grpc::ClientContext* context, const std::atomic<bool>* cancel, absl::Time deadline);
-
-  absl::Notification stop_;
-  std::atomic<Reason> reason_{Reason::kNone};
-  std::thread thread_;  // last: it starts once the members it uses exist
-};
 
 }  // namespace transient::tools

@@ -1,53 +1,46 @@
 // Receives transientd frames (StreamFrames) and turns their images into TransientFrames.
 #include "tools/transient/daemon_frame_source.h"
 
-#include <grpcpp/grpcpp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <utility>
 
 #include "absl/strings/match.h"
-#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
-#include "absl/strings/strip.h"
-#include "absl/time/clock.h"
-#include "tools/transient/client_command.h"
+#include "transient/client/client.h"
+#include "transient/client/decoded_image.h"
+#include "transient/client/frame_stream.h"
 #include "transient/formats/reconstruction_reader.h"
-#include "transient/wire/grpc_status.h"
-#include "transient/service/products.h"
-#include "transient/v1/transient.grpc.pb.h"
 #include "transient/v1/transient.pb.h"
+#include "transient/wire/product_registry.h"
 
 namespace transient::tools {
 namespace {
 
-// GetConfig answers from memory, as GetInfo does.
-constexpr absl::Duration kConfigTimeout = absl::Seconds(10);
+using ::transient::client::DecodedImage;
 
 // The products asked of the daemon and the planes of a TransientFrame each one fills.
 struct WireProduct {
   v1::Product product;
-  const char* name;  // as in Image.name (and --products of `transient client`)
   std::vector<Product> planes;
 };
 
 const std::vector<WireProduct>& WireProducts() {
   static const std::vector<WireProduct>* const products = new std::vector<WireProduct>{
-      {v1::RANGE, "range", {Product::kRange}},
-      {v1::C0, "c0", {Product::kZerothMoment}},
-      {v1::FLAGS, "flags", {Product::kFlags}},
-      {v1::SLICES, "slices", {Product::kDensity}},
-      {v1::CUMULATIVE, "cumulative", {Product::kCumulative}},
-      {v1::DIRECT_INDIRECT,
-       "direct_indirect",
-       {Product::kPisarenkoDirect, Product::kPisarenkoIndirect}},
+      {v1::RANGE, {Product::kRange}},
+      {v1::C0, {Product::kZerothMoment}},
+      {v1::FLAGS, {Product::kFlags}},
+      {v1::SLICES, {Product::kDensity}},
+      {v1::CUMULATIVE, {Product::kCumulative}},
+      {v1::DIRECT_INDIRECT, {Product::kPisarenkoDirect, Product::kPisarenkoIndirect}},
   };
   return *products;
 }
+
+const char* NameOf(v1::Product product) { return wire::FindProduct(product)->name; }
 
 bool Has(ProductSet set, Product product) { return set[static_cast<int>(product)]; }
 
@@ -71,15 +64,14 @@ std::vector<float>* FloatPlanes(TransientFrame* frame, Product product) {
   }
 }
 
-// Copies `values` into plane `plane` of `planes` (bins planes), once per plane.
-absl::Status PutPlane(const DecodedImage& image, int bins, int64_t pixels, absl::string_view prefix,
+// Copies the image's values into plane image.index of `planes` (bins planes), once per plane.
+absl::Status PutPlane(const DecodedImage& image, int bins, int64_t pixels,
                       std::vector<float>* planes, std::vector<bool>* seen) {
-  absl::string_view index_text = image.name;
-  int plane = -1;
-  if (!absl::ConsumePrefix(&index_text, prefix) || !absl::SimpleAtoi(index_text, &plane) ||
-      plane < 0 || plane >= bins || (*seen)[plane]) {
-    return absl::DataLossError(absl::StrCat("image '", image.name, "': expected ", prefix,
-                                            "N once for each N in 0..", bins - 1));
+  const int plane = image.index;
+  if (plane < 0 || plane >= bins || (*seen)[plane]) {
+    return absl::DataLossError(absl::StrCat("image '", image.name, "': expected ",
+                                            wire::Image(image.kind).stem, "/N once for each N in 0..",
+                                            bins - 1));
   }
   (*seen)[plane] = true;
   planes->resize(static_cast<size_t>(bins * pixels));
@@ -87,51 +79,50 @@ absl::Status PutPlane(const DecodedImage& image, int bins, int64_t pixels, absl:
   return absl::OkStatus();
 }
 
-// The planes of `wanted` from the images of one frame; DataLoss naming what does not fit.
-absl::Status FillFrame(const v1::Frame& wire, ProductSet wanted, TransientFrame* frame) {
-  absl::StatusOr<std::vector<DecodedImage>> images = DecodeFrame(wire);
-  if (!images.ok()) return images.status();
+// The planes of `wanted` from the decoded images of frame `sequence`; DataLoss naming what does
+// not fit.
+absl::Status FillFrame(const std::vector<DecodedImage>& images, uint64_t sequence,
+                       ProductSet wanted, TransientFrame* frame) {
   const int64_t pixels = frame->geometry.pixel_count();
   const int bins = frame->bins();
   std::vector<bool> density_seen(bins, false), cumulative_seen(bins, false);
-  for (const DecodedImage& image : *images) {
+  for (const DecodedImage& image : images) {
     if (image.geometry != frame->geometry) {
       return absl::DataLossError(absl::StrCat(
-          "image '", image.name, "' of frame ", wire.sequence(), " is ", image.geometry.width, "x",
+          "image '", image.name, "' of frame ", sequence, " is ", image.geometry.width, "x",
           image.geometry.height, " px, expected the sensor's ", frame->geometry.width, "x",
           frame->geometry.height, " px"));
     }
     absl::Status status;
-    switch (image.product) {
-      case v1::RANGE:
+    switch (image.kind) {
+      case wire::ImageKind::kRange:
         frame->range_m = image.values;
         break;
-      case v1::C0:
+      case wire::ImageKind::kC0:
         frame->c0 = image.values;
         break;
-      case v1::FLAGS:
+      case wire::ImageKind::kFlags:
         frame->flags.resize(static_cast<size_t>(pixels));
         for (int64_t p = 0; p < pixels; ++p) {
           const float value = image.values[p];
           if (!(value >= 0.0f && value <= 255.0f && value == std::floor(value))) {
-            return absl::DataLossError(absl::StrCat("image 'flags' of frame ", wire.sequence(),
+            return absl::DataLossError(absl::StrCat("image 'flags' of frame ", sequence,
                                                     ": value ", value, " is not a byte"));
           }
           frame->flags[p] = static_cast<uint8_t>(value);
         }
         break;
-      case v1::SLICES:
-        status = PutPlane(image, bins, pixels, "slices/", &frame->density, &density_seen);
+      case wire::ImageKind::kSlice:
+        status = PutPlane(image, bins, pixels, &frame->density, &density_seen);
         break;
-      case v1::CUMULATIVE:
-        status = PutPlane(image, bins, pixels, "cumulative/", &frame->cumulative, &cumulative_seen);
+      case wire::ImageKind::kCumulative:
+        status = PutPlane(image, bins, pixels, &frame->cumulative, &cumulative_seen);
         break;
-      case v1::DIRECT_INDIRECT:
-        if (image.name == "direct") {
-          frame->pisarenko_direct = image.values;
-        } else if (image.name == "indirect") {
-          frame->pisarenko_indirect = image.values;
-        }
+      case wire::ImageKind::kDirect:
+        frame->pisarenko_direct = image.values;
+        break;
+      case wire::ImageKind::kIndirect:
+        frame->pisarenko_indirect = image.values;
         break;
       default:
         break;  // not asked for: ignored
@@ -151,14 +142,14 @@ absl::Status FillFrame(const v1::Frame& wire, ProductSet wanted, TransientFrame*
                                ? !frame->cumulative.empty() && all_cumulative
                                : !FloatPlanes(frame, plane)->empty();
       if (!present) {
-        missing.push_back(product.name);
+        missing.push_back(NameOf(product.product));
         break;  // direct_indirect once, not once per plane
       }
     }
   }
   if (!missing.empty()) {
     return absl::DataLossError(
-        absl::StrCat("frame ", wire.sequence(), " lacks ", absl::StrJoin(missing, ", ")));
+        absl::StrCat("frame ", sequence, " lacks ", absl::StrJoin(missing, ", ")));
   }
   return absl::OkStatus();
 }
@@ -182,9 +173,9 @@ absl::Status DaemonSourceOptions::Validate() const {
         "--frames = ", frames, ": a daemon input takes the number of frames to receive, 1..",
         kMaxDaemonFrames));
   }
-  if (bins < 1 || bins > service::kMaxSlices) {
+  if (bins < 1 || bins > wire::kMaxSlices) {
     return absl::InvalidArgumentError(absl::StrCat("--bins = ", bins, ": transientd sends 1..",
-                                                   service::kMaxSlices, " slices a frame"));
+                                                   wire::kMaxSlices, " slices a frame"));
   }
   if (!(connect_timeout_s > 0.0) || !std::isfinite(connect_timeout_s)) {
     return absl::InvalidArgumentError(
@@ -197,29 +188,21 @@ absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
     const DaemonSourceOptions& options, const std::atomic<bool>* cancel) {
   if (absl::Status status = options.Validate(); !status.ok()) return status;
   const std::string& address = options.address;
-  absl::StatusOr<std::unique_ptr<v1::Transient::Stub>> stub =
-      ConnectToTransientd(address, options.connect_timeout_s, cancel);
-  if (!stub.ok()) return stub.status();
-  absl::StatusOr<v1::Info> info = GetTransientdInfo(**stub, address);
+  absl::StatusOr<client::Client> daemon = client::Client::Connect(
+      {.address = address, .timeout_s = options.connect_timeout_s, .cancel = cancel});
+  if (!daemon.ok()) return daemon.status();
+  absl::StatusOr<v1::Info> info = daemon->GetInfo();
   if (!info.ok()) return info.status();
-  v1::Config config;
-  {
-    grpc::ClientContext context;
-    context.set_deadline(absl::ToChronoTime(absl::Now() + kConfigTimeout));
-    if (grpc::Status status = (*stub)->GetConfig(&context, v1::GetConfigRequest(), &config);
-        !status.ok()) {
-      return Prefixed(absl::StrCat("GetConfig from transientd at ", address, ": "),
-                      wire::FromGrpcStatus(status));
-    }
-  }
+  absl::StatusOr<v1::Config> config = daemon->GetConfig();
+  if (!config.ok()) return config.status();
 
   std::unique_ptr<DaemonFrameSource> source(new DaemonFrameSource());
   source->name_ = absl::StrCat(kDaemonInputPrefix, address);
   source->source_uri_ = info->source_uri();
   const v1::CameraInfo& camera = info->camera();
   const double f = info->schedule().base_frequency_hz();
-  if (camera.width() == 0 || camera.height() == 0 || camera.width() > kMaxImageSide ||
-      camera.height() > kMaxImageSide || !(f > 0.0) || !std::isfinite(f)) {
+  if (camera.width() == 0 || camera.height() == 0 || camera.width() > client::kMaxImageSide ||
+      camera.height() > client::kMaxImageSide || !(f > 0.0) || !std::isfinite(f)) {
     return absl::DataLossError(absl::StrCat(
         "GetInfo from transientd at ", address, ": a ", camera.width(), "x", camera.height(),
         " px camera at base frequency ", f, " Hz; expected a sensor and a frequency > 0"));
@@ -227,7 +210,7 @@ absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
   source->geometry_ = {static_cast<int>(camera.width()), static_cast<int>(camera.height())};
   source->base_frequency_hz_ = f;
   source->order_ = static_cast<int>(info->schedule().order());
-  if (config.has_threshold()) source->threshold_ = config.threshold();
+  if (config->has_threshold()) source->threshold_ = config->threshold();
   const PinholeIntrinsics intrinsics{
       .fx = camera.fx(), .fy = camera.fy(), .cx = camera.cx(), .cy = camera.cy()};
   if (intrinsics.Validate().ok()) source->intrinsics_ = intrinsics;
@@ -241,7 +224,7 @@ absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
         info->products_size() == 0 || std::find(info->products().begin(), info->products().end(),
                                                 product.product) != info->products().end();
     if (!offered) {
-      not_offered.push_back(product.name);
+      not_offered.push_back(NameOf(product.product));
       continue;
     }
     request.add_products(product.product);
@@ -277,35 +260,36 @@ absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
   blank.threshold = source->threshold_;
   blank.phases = source->phases_;
 
+  // Dropped here (wrong size, a product missing), or by the stream (an image did not decode).
   int64_t dropped = 0;
   absl::Status last_dropped;
-  grpc::Status stream_status;
-  bool interrupted = false;
-  {
-    grpc::ClientContext context;
-    std::unique_ptr<grpc::ClientReader<v1::Frame>> reader =
-        (*stub)->StreamFrames(&context, request);
-    StreamWatcher watcher(&context, cancel, absl::InfiniteFuture());
-    v1::Frame wire;
-    while (source->frames() < options.frames && dropped <= options.frames && reader->Read(&wire)) {
-      if (wire.images_size() == 0) continue;  // a state announcement
-      TransientFrame frame = blank;
-      frame.index = source->frames();
-      if (absl::Status status = FillFrame(wire, source->available_, &frame); !status.ok()) {
-        ++dropped;
-        last_dropped = status;
-        continue;
-      }
-      source->frames_.push_back(std::move(frame));
-      source->sequences_.push_back(wire.sequence());
+  std::unique_ptr<client::FrameStream> stream = daemon->StreamFrames(request, {.cancel = cancel});
+  const auto unusable = [&] { return dropped + stream->counts().corrupt; };
+  client::StreamFrame received;
+  while (source->frames() < options.frames && unusable() <= options.frames &&
+         stream->Next(&received)) {
+    if (received.kind == client::StreamFrame::Kind::kAnnouncement) continue;
+    if (received.kind == client::StreamFrame::Kind::kCorrupt) {
+      last_dropped = received.corruption;
+      continue;
     }
-    interrupted = watcher.reason() == StreamWatcher::Reason::kInterrupted;
-    // Ours to end: its CANCELLED status is then not an error (each case is handled below).
-    if (source->frames() >= options.frames || dropped > options.frames) context.TryCancel();
-    while (reader->Read(&wire)) {
-    }  // drain what was in flight before Finish
-    stream_status = reader->Finish();
+    TransientFrame frame = blank;
+    frame.index = source->frames();
+    if (absl::Status status =
+            FillFrame(received.images, received.sequence, source->available_, &frame);
+        !status.ok()) {
+      ++dropped;
+      last_dropped = status;
+      continue;
+    }
+    source->frames_.push_back(std::move(frame));
+    source->sequences_.push_back(received.sequence);
   }
+  // OK when we ended it (enough frames, too many unusable), Cancelled when interrupted.
+  const absl::Status stream_status = stream->Finish();
+  const bool interrupted = stream_status.code() == absl::StatusCode::kCancelled &&
+                           cancel != nullptr && cancel->load();
+  dropped = unusable();
   if (interrupted) {
     return absl::CancelledError(absl::StrCat(
         "interrupted while receiving frames from transientd at ", address, "; nothing written"));
@@ -321,8 +305,8 @@ absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
   }
   const bool ended_early = source->frames() < options.frames;
   if (ended_early) {
-    const absl::Status ended = stream_status.ok() ? absl::OutOfRangeError("the stream ended")
-                                                  : wire::FromGrpcStatus(stream_status);
+    const absl::Status ended =
+        stream_status.ok() ? absl::OutOfRangeError("the stream ended") : stream_status;
     // A replay that reached its end (OutOfRange) still leaves the frames it sent; anything
     // else, or nothing received, is an error.
     if (source->frames_.empty() || ended.code() != absl::StatusCode::kOutOfRange) {

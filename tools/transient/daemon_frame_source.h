@@ -32,7 +32,7 @@ inline constexpr int64_t kMaxDaemonFrameBytes = int64_t{2} << 30;
 struct DaemonSourceOptions {
   std::string address = {};  // gRPC target of transientd (the input without "daemon:")
   int64_t frames = 4;        // frames with images to receive, 1..kMaxDaemonFrames
-  int bins = 64;             // SLICES and CUMULATIVE uniform over one period, 1..1024
+  int bins = 64;  // SLICES and CUMULATIVE uniform over one period, 1..wire::kMaxSlices
   double connect_timeout_s = 5.0;
 
   // The message names the option (--frames, --bins, --connect-timeout), the value and the rule.
@@ -47,9 +47,9 @@ struct DaemonSourceOptions {
 // threshold from GetConfig.
 class DaemonFrameSource : public TransientFrameSource {
  public:
-  // Connects (Unavailable "cannot reach transientd at ADDR within T s"), asks GetInfo and
-  // GetConfig, then receives options.frames frames of the whole sensor as float32. State
-  // announcements are skipped. A frame whose images do not decode, do not have the sensor's
+  // Connects with the client library (client::Client: Unavailable "cannot reach transientd at
+  // ADDR within T s"), asks GetInfo and GetConfig, then receives options.frames frames of the
+  // whole sensor as float32. State announcements are skipped. A frame whose images do not decode, do not have the sensor's
   // size or lack a product asked for is dropped and counted; more dropped frames than
   // options.frames is DataLoss. When the stream ends early (a replay reached its end) the
   // frames received are kept and notes() says so; with none, the stream's status (OutOfRange

@@ -16,6 +16,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "transient/drivers/simulator.h"
 #include "transient/drivers/source_registry.h"
@@ -28,6 +29,7 @@
 #include "tools/transient/progress_bar.h"
 #include "tools/transient/reconstruct_command.h"
 #include "tools/transient/view_command.h"
+#include "transient/wire/product_registry.h"
 
 namespace {
 
@@ -403,8 +405,8 @@ CLI::App* AddClientCommand(CLI::App& app, ClientCommandLine& line) {
       ->capture_default_str();
   command
       ->add_option("--products", line.products,
-                   "comma-separated: range, depth, amplitude, c0, flags, moment_state, slices, "
-                   "cumulative, direct_indirect, moment_depth")
+                   absl::StrCat("comma-separated: ",
+                                absl::StrJoin(transient::wire::ProductNames(), ", ")))
       ->capture_default_str();
   line.frames_option =
       command->add_option("--frames", args.frames, "frames with images to receive")
@@ -417,7 +419,9 @@ CLI::App* AddClientCommand(CLI::App& app, ClientCommandLine& line) {
                       "region of interest X,Y,W,H in sensor pixels (default: whole sensor)");
   command
       ->add_option("--bins", args.bins,
-                   "slices uniform over one modulation period, times of flight n*T/N (1..1024)")
+                   absl::StrCat("slices uniform over one modulation period, times of flight "
+                                "n*T/N (1..",
+                                transient::wire::kMaxSlices, ")"))
       ->capture_default_str();
   command
       ->add_option("--encoding", args.encoding,
@@ -571,8 +575,9 @@ CLI::App* AddViewCommand(CLI::App& app, ViewCommandLine& line) {
   command->add_option("--fps", args.fps, "video frames per second")->capture_default_str();
   command
       ->add_option("--bins", args.bins,
-                   "moment or capture input: phases per period to reconstruct (8..65536); "
-                   "daemon input: slices per period to receive (8..1024)")
+                   absl::StrCat("moment or capture input: phases per period to reconstruct "
+                                "(8..65536); daemon input: slices per period to receive (8..",
+                                transient::wire::kMaxSlices, ")"))
       ->capture_default_str();
   command
       ->add_option("--bounds-r", line.bounds_r,

@@ -31,9 +31,10 @@ struct PixelRect {
 // when the rectangle is empty in one dimension only or reaches outside the sensor.
 absl::StatusOr<PixelRect> ResolveRoi(const v1::Roi& roi, ImageGeometry sensor);
 
-// Whether `product` can be sent in `encoding`: UINT16_MM only for RANGE and DEPTH (lengths);
-// FLAGS is always 8UC1 and accepts any encoding request (it is ignored). InvalidArgument
-// naming the product and the encoding otherwise.
+// Whether `product` can be sent in `encoding`, by its EncodingRule (product_registry.h):
+// UINT16_MM only for RANGE and DEPTH (lengths); FLAGS (always 8UC1) and MOMENT_DEPTH (16UC4 or
+// 32FC4) accept any known encoding request and ignore it. InvalidArgument naming the product
+// and the encoding otherwise.
 absl::Status CheckEncoding(v1::Product product, v1::Encoding encoding);
 
 // The ROS encoding string of a float plane sent as `encoding`: 32FC1, 16FC1 or 16UC1.
