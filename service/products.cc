@@ -69,22 +69,6 @@ std::vector<v1::Product> ProductSet::List() const {
   return list;
 }
 
-const char* ProductName(v1::Product product) {
-  switch (product) {
-    case v1::RANGE: return "range";
-    case v1::DEPTH: return "depth";
-    case v1::AMPLITUDE: return "amplitude";
-    case v1::C0: return "c0";
-    case v1::FLAGS: return "flags";
-    case v1::MOMENT_STATE: return "moment_state";
-    case v1::SLICES: return "slices";
-    case v1::CUMULATIVE: return "cumulative";
-    case v1::DIRECT_INDIRECT: return "direct_indirect";
-    case v1::MOMENT_DEPTH: return "moment_depth";
-    default: return "unspecified";
-  }
-}
-
 double PhaseToTimeOfFlightNs(double phase_rad, double base_frequency_hz) {
   return PhaseToTimeOfFlight(phase_rad, base_frequency_hz) * 1e9;
 }

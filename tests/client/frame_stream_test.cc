@@ -32,6 +32,7 @@ namespace {
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::Request;
 using ::transient::testing::IsOk;
 using ::transient::testing::StatusIs;
 

@@ -383,6 +383,17 @@ class ClientRpcs(unittest.TestCase):
         sequences = [f.sequence for f in received]
         self.assertEqual(sequences, sorted(set(sequences)))
 
+    def test_the_command_lines_encoding_names_are_the_protos(self):
+        # "mm" is `transient client --encoding mm` (wire/product_registry.h), UINT16_MM the proto's.
+        for name in ("mm", "uint16_mm", "UINT16_MM"):
+            frames = self.client.frames(["depth"], encoding=name)
+            try:
+                frame = next(f for f in frames if not f.announcement)
+            finally:
+                frames.close()
+            self.assertEqual(frame.images["depth"].encoding, "16UC1", name)
+            self.assertEqual(frame.images["depth"].unit, "m", name)
+
     def test_frames_refused_by_the_daemon(self):
         error = self.assert_rpc_error(lambda: next(self.client.frames([42])),
                                       "INVALID_ARGUMENT", "product")

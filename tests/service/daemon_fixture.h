@@ -26,6 +26,13 @@ inline std::unique_ptr<v1::Transient::Stub> Connect(int port) {
   return v1::Transient::NewStub(channel);
 }
 
+// A stream request for `products`, every other field at its default.
+inline v1::StreamRequest Request(std::initializer_list<v1::Product> products) {
+  v1::StreamRequest request;
+  for (v1::Product p : products) request.add_products(p);
+  return request;
+}
+
 class Daemon {
  public:
   // start = false: the server answers, but no frame is ever produced until pipeline().Start().

@@ -46,6 +46,7 @@ constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 
 using ::transient::service::testing::Connect;
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::Request;
 
 // Reads up to `frames` frames with images; returns the status the stream ended with (OK when
 // it was cut after `frames`).
@@ -70,12 +71,6 @@ int ImagesOf(const std::vector<v1::Frame>& frames) {
   int n = 0;
   for (const v1::Frame& f : frames) n += f.images_size() > 0;
   return n;
-}
-
-v1::StreamRequest Request(std::initializer_list<v1::Product> products) {
-  v1::StreamRequest request;
-  for (v1::Product p : products) request.add_products(p);
-  return request;
 }
 
 TEST(Server, GetInfoDescribesSensorScheduleAndCalibration) {

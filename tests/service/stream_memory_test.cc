@@ -34,6 +34,7 @@ namespace transient::service {
 namespace {
 
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::Request;
 
 constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 
@@ -57,12 +58,6 @@ int64_t MemoryInUse() {
   return -1;
 }
 #endif
-
-v1::StreamRequest Request(std::initializer_list<v1::Product> products) {
-  v1::StreamRequest request;
-  for (v1::Product p : products) request.add_products(p);
-  return request;
-}
 
 TEST(Server, TwentySubscribersOneNeverReadsTheOthersKeepTheFullRate) {
   Daemon daemon(kSmallSim);

@@ -185,34 +185,6 @@ TEST(ParseRoi, ReadsFourNonNegativeIntegers) {
   }
 }
 
-TEST(Percentile, InterpolatesLinearlyBetweenClosestRanksLikeNumpy) {
-  // np.percentile([4, 1, 3, 2], [0, 25, 50, 90, 100]) = [1, 1.75, 2.5, 3.7, 4]
-  constexpr double kTolerance = 1e-12;  // a few ulps of values near 4
-  const std::vector<double> values = {4.0, 1.0, 3.0, 2.0};
-  const std::vector<std::pair<double, double>> cases = {
-      {0.0, 1.0}, {25.0, 1.75}, {50.0, 2.5}, {90.0, 3.7}, {100.0, 4.0}};
-  for (const auto& [percent, expected] : cases) {
-    std::vector<double> copy = values;
-    EXPECT_NEAR(Percentile(std::span<double>(copy), percent), expected, kTolerance) << percent;
-  }
-}
-
-TEST(Percentile, SingleValueIsEveryPercentileAndNoValuesIsNan) {
-  std::vector<double> one = {7.5};
-  EXPECT_EQ(Percentile(std::span<double>(one), 0.0), 7.5);
-  EXPECT_EQ(Percentile(std::span<double>(one), 99.5), 7.5);
-  std::vector<double> none;
-  EXPECT_TRUE(std::isnan(Percentile(std::span<double>(none), 50.0)));
-}
-
-TEST(Percentile, FloatsOfAThousandValuesGiveTheRankedValue) {
-  // 0, 1, ..., 999 shuffled: the p-th percentile is 9.99 * p.
-  std::vector<float> values(1000);
-  for (int i = 0; i < 1000; ++i) values[i] = static_cast<float>((i * 367) % 1000);
-  EXPECT_NEAR(Percentile(std::span<float>(values), 99.5), 994.005, 1e-9);
-  EXPECT_NEAR(Percentile(std::span<float>(values), 50.0), 499.5, 1e-9);
-}
-
 TEST(RunClient, InterruptWhileConnectingIsCancelled) {
   ScratchDirectory dir;
   ClientArgs args = GoodArgs(dir.File("out"));

@@ -122,7 +122,7 @@ def main(argv=None):
     parser.add_argument("--products", default="depth,range",
                         help="comma-separated product names or numbers (default depth,range)")
     parser.add_argument("--encoding", default="float32",
-                        choices=["float32", "float16", "uint16_mm"])
+                        choices=["float32", "float16", "mm", "uint16_mm"])
     parser.add_argument("--compression", default="none", choices=["none", "zstd"])
     parser.add_argument("--max-rate", type=float, default=0.0,
                         help="frames per second at most; 0 = every frame")

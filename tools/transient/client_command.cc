@@ -21,6 +21,7 @@
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "tools/transient/image_writers.h"
+#include "transient/reconstruct/percentile.h"
 #include "transient/client/client.h"
 #include "transient/client/decoded_image.h"
 #include "transient/client/frame_stream.h"
@@ -332,30 +333,7 @@ std::string JsonStrings(const std::vector<std::string>& values) {
   return absl::StrCat("[", absl::StrJoin(quoted, ", "), "]");
 }
 
-template <typename T>
-double PercentileOf(std::span<T> values, double percent) {
-  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
-  assert(percent >= 0.0 && percent <= 100.0);
-  assert(std::none_of(values.begin(), values.end(), [](T v) { return std::isnan(v); }));
-  const double rank = std::clamp(percent, 0.0, 100.0) / 100.0 * double(values.size() - 1);
-  const size_t lower = std::min(static_cast<size_t>(rank), values.size() - 1);
-  std::nth_element(values.begin(), values.begin() + lower, values.end());
-  const double low = values[lower];
-  if (lower + 1 == values.size()) return low;
-  // After nth_element everything above `lower` is >= values[lower]; the next rank is their min.
-  const double high = *std::min_element(values.begin() + lower + 1, values.end());
-  return low + (rank - static_cast<double>(lower)) * (high - low);
-}
-
 }  // namespace
-
-double Percentile(std::span<double> values, double percent) {
-  return PercentileOf(values, percent);
-}
-
-double Percentile(std::span<float> values, double percent) {
-  return PercentileOf(values, percent);
-}
 
 absl::StatusOr<ClientRoi> ParseRoi(const std::string& text) {
   const std::vector<std::string> parts = absl::StrSplit(text, ',');

@@ -131,10 +131,4 @@ struct ClientSummary {
 std::string ClientSummaryJson(const ClientSummary& summary);
 std::string FormatClientSummary(const ClientSummary& summary);
 
-// The `percent`-th percentile (0..100) of `values`, linear between the closest ranks
-// (Hyndman & Fan type 7, numpy's default): 0 is the minimum, 100 the maximum. NaN for no
-// values. Reorders `values`; NaN inside is not allowed (asserted in debug builds).
-double Percentile(std::span<double> values, double percent);
-double Percentile(std::span<float> values, double percent);
-
 }  // namespace transient::tools

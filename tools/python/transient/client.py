@@ -122,7 +122,8 @@ class Client:
 
         products: names ("depth", "range", "amplitude", "c0", "flags", "moment_state",
             "slices", "cumulative", "direct_indirect", "moment_depth") or numbers.
-        encoding: "float32" (32FC1), "float16" (16FC1) or "uint16_mm" (16UC1 millimetres,
+        encoding: "float32" (32FC1), "float16" (16FC1) or "mm" (16UC1 millimetres; also its
+            proto name "uint16_mm";
             range and depth only); decoded to float32 alike (see Image). FLAGS is always 8UC1
             and MOMENT_DEPTH 16UC4 or 32FC4.
         compression: "none" or "zstd" (needs the zstandard module, checked here).
@@ -142,7 +143,7 @@ class Client:
         """
         request = pb2.StreamRequest(
             products=product_numbers(products),
-            encoding=_enum_value(pb2.Encoding, encoding, "encoding"),
+            encoding=_encoding(encoding),
             compression=_compression(compression),
             max_rate_hz=max_rate_hz, queue_frames=queue_frames)
         if request.compression == pb2.ZSTD:
@@ -271,6 +272,18 @@ def _enum_value(enum, value, what):
     except ValueError:
         names = ", ".join(n.lower() for n in enum.keys() if not n.endswith("UNSPECIFIED"))
         raise ValueError(f"unknown {what} '{value}'; expected one of {names}") from None
+
+
+# The encoding names of `transient client --encoding` (wire/product_registry.h), beside the
+# proto's enum names that _enum_value takes.
+_ENCODING_NAMES = {"float32": "FLOAT32", "float16": "FLOAT16", "mm": "UINT16_MM"}
+
+
+def _encoding(value):
+    """"float32", "float16", "mm", a proto enum name (case-insensitive) or a number."""
+    if isinstance(value, str) and value.lower() in _ENCODING_NAMES:
+        value = _ENCODING_NAMES[value.lower()]
+    return _enum_value(pb2.Encoding, value, "encoding")
 
 
 def _compression(value):

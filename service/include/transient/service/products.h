@@ -36,8 +36,6 @@ class ProductSet {
   uint32_t bits_ = 0;
 };
 
-// The lower-case product name used in Image.name and on command lines ("range", "slices").
-const char* ProductName(v1::Product product);
 
 struct SliceImages {
   std::vector<float> density;     // [slices, pixels], per radian of phase (thesis eq. 8.3)
