@@ -49,12 +49,6 @@ Client MustConnect(const std::string& address) {
   return *std::move(client);
 }
 
-v1::StreamRequest Request(std::initializer_list<v1::Product> products) {
-  v1::StreamRequest request;
-  for (v1::Product product : products) request.add_products(product);
-  return request;
-}
-
 // The next frame with images, skipping announcements; false when the stream ends first.
 bool NextImages(FrameStream& stream, StreamFrame* frame) {
   while (stream.Next(frame)) {
