@@ -298,11 +298,13 @@ void Pipeline::Impl::SourceLoop() {
 }
 
 ProductNeeds Pipeline::Impl::CurrentNeeds() {
+  ProductSet products;
   ProductNeeds needs;
   absl::MutexLock lock(&mu);
+  for (const auto& s : subscriptions) products |= s->request().products;
+  needs = NeedsFor(products);
   for (const auto& s : subscriptions) {
     const ProductRequest& r = s->request();
-    needs.products |= r.products;
     if (r.products.Has(v1::SLICES)) needs.slice_phases[r.slice_phases].density = true;
     if (r.products.Has(v1::CUMULATIVE)) needs.slice_phases[r.slice_phases].cumulative = true;
     if (r.products.Has(v1::MOMENT_DEPTH) &&

@@ -11,53 +11,6 @@
 #include "transient/reconstruct/physical_constants.h"
 
 namespace transient::service {
-namespace {
-
-
-std::vector<float> ZerothPlane(const SolvedImage& solved) {
-  const int64_t pixels = solved.geometry.pixel_count();
-  std::vector<float> c0(static_cast<size_t>(pixels));
-  for (int64_t p = 0; p < pixels; ++p) {
-    c0[p] = solved.valid(p) ? static_cast<float>(solved.c_real[p])
-                            : std::numeric_limits<float>::quiet_NaN();
-  }
-  return c0;
-}
-
-// The Pisarenko returns of every pixel as depths and weights (planar, m planes, as
-// MomentDepthMapBuilder::BuildFromReturns takes them): a return's phase is its range
-// (c phi / (4 pi f)), its depth that times the ray factor. Returns weaker than `threshold` times
-// the pixel's largest weight, NaN padding and invalid pixels get weight 0 (left out).
-void ReturnsAsDepth(const PisarenkoImage& pisarenko, const CameraInfo& camera,
-                    double base_frequency_hz, double threshold, std::vector<float>* depth_m,
-                    std::vector<float>* weight) {
-  const int64_t pixels = pisarenko.geometry.pixel_count();
-  const int m = pisarenko.order;
-  const double metres_per_radian = PhaseToRange(1.0, base_frequency_hz);
-  depth_m->assign(static_cast<size_t>(m * pixels), std::numeric_limits<float>::quiet_NaN());
-  weight->assign(static_cast<size_t>(m * pixels), 0.0f);
-  for (int64_t p = 0; p < pixels; ++p) {
-    float largest = 0.0f;
-    for (int r = 0; r < m; ++r) {
-      const float w = pisarenko.weight[r * pixels + p];
-      if (w > largest) largest = w;  // false for NaN
-    }
-    if (!(largest > 0.0f)) continue;
-    const int width = camera.geometry.width;
-    const double factor =
-        PixelRay(camera.intrinsics, static_cast<double>(p % width), static_cast<double>(p / width)).z;
-    for (int r = 0; r < m; ++r) {
-      const size_t i = static_cast<size_t>(r * pixels + p);
-      const float w = pisarenko.weight[i];
-      const float phase = pisarenko.phase[i];
-      if (!(w >= threshold * largest) || !std::isfinite(phase)) continue;
-      (*depth_m)[i] = static_cast<float>(phase * metres_per_radian * factor);
-      (*weight)[i] = w;
-    }
-  }
-}
-
-}  // namespace
 
 std::vector<v1::Product> ProductSet::List() const {
   std::vector<v1::Product> list;
@@ -170,90 +123,12 @@ absl::StatusOr<MomentDepthSpec> ResolveMomentDepthSpec(const v1::MomentDepthRequ
   return spec;
 }
 
-std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const SolvedImage> solved,
-                                                     const CameraInfo& camera,
-                                                     const ProductOptions& options,
-                                                     const ProductNeeds& needs,
-                                                     uint64_t sequence) {
-  auto out = std::make_shared<FrameProducts>();
-  const SolvedImage& s = *solved;
-  const size_t pixels = static_cast<size_t>(s.geometry.pixel_count());
-  out->sequence = sequence;
-  out->geometry = s.geometry;
-  out->order = s.order;
-  out->base_frequency_hz = options.base_frequency_hz;
-  out->flags = s.flags;
-
-  const ProductSet& p = needs.products;
-  bool moments_of_depth = false, moments_of_returns = false;
-  if (p.Has(v1::MOMENT_DEPTH)) {
-    for (const MomentDepthSpec& spec : needs.moment_depth) {
-      (spec.from_returns ? moments_of_returns : moments_of_depth) = true;
-    }
-  }
-  const bool need_depth = p.Has(v1::DEPTH) || moments_of_depth;
-  const bool need_range = p.Has(v1::RANGE) || need_depth;
-  const bool need_pisarenko = p.Has(v1::DIRECT_INDIRECT) || moments_of_returns ||
-                              (need_range && options.range_method == RangeMethod::kPisarenko);
-  if (need_pisarenko) {
-    out->pisarenko = std::make_shared<const PisarenkoImage>(EstimatePisarenko(s));
-  }
-  if (need_range) {
-    const RangeOptions range_options{.base_frequency_hz = options.base_frequency_hz,
-                                     .threshold = options.threshold};
-    out->range_m.resize(pixels);
-    if (options.range_method == RangeMethod::kPisarenko) {
-      PisarenkoRange(*out->pisarenko, range_options, out->range_m, out->flags);
-    } else {
-      MeseRange(s, range_options, out->range_m, out->flags);
-    }
-    if (need_depth) {
-      out->depth_m.resize(pixels);
-      DepthFromRange(s.geometry, camera.intrinsics, out->range_m, out->depth_m);
-    }
-  }
-  if (p.Has(v1::AMPLITUDE)) {
-    out->amplitude.resize(pixels);
-    Amplitude(s, out->amplitude);
-  }
-  if (p.Has(v1::C0)) out->c0 = ZerothPlane(s);
-  if (p.Has(v1::DIRECT_INDIRECT)) {
-    out->direct.resize(pixels);
-    out->indirect.resize(pixels);
-    SeparateDirectIndirect(*out->pisarenko, options.threshold, out->direct, out->indirect);
-  }
-  for (const auto& [phases, need] : needs.slice_phases) {
-    SliceImages& images = out->slices[phases];
-    if (need.density) {
-      images.density.resize(phases.size() * pixels);
-      DensitySlices(s, phases, images.density);
-    }
-    if (need.cumulative) {
-      images.cumulative.resize(phases.size() * pixels);
-      CumulativeSlices(s, phases, images.cumulative);
-    }
-  }
-  if (p.Has(v1::MOMENT_DEPTH)) {
-    std::vector<float> return_depth, return_weight;
-    if (moments_of_returns) {
-      ReturnsAsDepth(*out->pisarenko, camera, options.base_frequency_hz, options.threshold,
-                     &return_depth, &return_weight);
-    }
-    for (const MomentDepthSpec& spec : needs.moment_depth) {
-      absl::StatusOr<MomentDepthMapBuilder> builder =
-          MomentDepthMapBuilder::Create(s.geometry, spec.MapOptions());
-      if (!builder.ok()) continue;  // ResolveMomentDepthSpec refused such specs
-      auto map = std::make_shared<MomentDepthMap>();
-      const absl::Status status =
-          spec.from_returns
-              ? builder->BuildFromReturns(out->pisarenko->order, return_depth, return_weight,
-                                          map.get())
-              : builder->Build(out->depth_m, map.get());
-      if (status.ok()) out->moment_depth[spec] = std::move(map);
-    }
-  }
-  out->solved = std::move(solved);
-  return out;
+ProductNeeds NeedsFor(const ProductSet& products) {
+  return {.range = products.Has(v1::RANGE),
+          .depth = products.Has(v1::DEPTH),
+          .amplitude = products.Has(v1::AMPLITUDE),
+          .c0 = products.Has(v1::C0),
+          .direct_indirect = products.Has(v1::DIRECT_INDIRECT)};
 }
 
 }  // namespace transient::service

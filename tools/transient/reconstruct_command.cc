@@ -18,11 +18,10 @@
 #include "transient/formats/moment_file.h"
 #include "transient/formats/reconstruction_file.h"
 #include "transient/formats/atomic_output.h"
+#include "transient/reconstruct/frame_products.h"
 
 namespace transient::tools {
 namespace {
-
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 bool HasMese(Method method) { return method != Method::kPisarenko; }
 bool HasPisarenko(Method method) { return method != Method::kMese; }
@@ -35,10 +34,6 @@ absl::Status InFile(const std::string& file, const absl::Status& status) {
 // Per-frame working buffers, allocated once for the whole run.
 struct FrameBuffers {
   MomentImage moments;
-  std::vector<float> plane;          // one image
-  std::vector<float> second_plane;   // one image
-  std::vector<uint8_t> flags;        // /flags
-  std::vector<uint8_t> range_flags;  // flags as returned by a range estimate
   std::vector<float> block;          // a block of bins planes
   std::vector<float> second_block;   // a block of bins planes
 };
@@ -46,19 +41,6 @@ struct FrameBuffers {
 struct FrameCounts {
   int64_t biased = 0, invalid = 0, no_return = 0;
 };
-
-// Combines the solver's flags with the kFlagNoReturn bit of a range estimate, so that
-// /range_m is NaN exactly where /flags says why. The range functions flag every NaN they
-// leave on a valid pixel; counting any other NaN as "no return" keeps that promise even if
-// an estimate fails in a way they do not report.
-void MergeNoReturn(std::span<const uint8_t> solved, std::span<const uint8_t> range_flags,
-                   std::span<const float> range_m, std::span<uint8_t> out) {
-  for (size_t p = 0; p < out.size(); ++p) {
-    const bool unexplained_nan = std::isnan(range_m[p]) && (solved[p] & kFlagInvalidInput) == 0;
-    out[p] = static_cast<uint8_t>(solved[p] | (range_flags[p] & kFlagNoReturn) |
-                                  (unexplained_nan ? kFlagNoReturn : 0));
-  }
-}
 
 // Writes a bins-planes product computed by `compute(phases, out)` a block of bins at a time.
 template <typename Compute>
@@ -108,51 +90,41 @@ class FrameReconstructor {
 absl::Status FrameReconstructor::Run(const MomentImage& moments, int64_t frame,
                                      ReconstructionFile& file, FrameBuffers& buffers,
                                      FrameCounts& counts) const {
-  const SolvedImage solved = Solve(moments, solve_options_);
+  // The frame pipeline's Solve and products (frame_pipeline.h, frame_products.h); /range_m and
+  // /flags come from MESE unless only Pisarenko runs.
+  const auto solved_image = std::make_shared<SolvedImage>(Solve(moments, solve_options_));
+  const SolvedImage& solved = *solved_image;
+  const bool pisarenko = HasPisarenko(args_.method);
+  const ProductNeeds needs{.range = true,
+                           .c0 = true,
+                           .direct_indirect = pisarenko,
+                           .pisarenko = pisarenko,
+                           .pisarenko_range = pisarenko};
+  const ProductOptions options{
+      .base_frequency_hz = range_options_.base_frequency_hz,
+      .range_method = HasMese(args_.method) ? RangeMethod::kMese : RangeMethod::kPisarenko,
+      .threshold = args_.threshold};
+  const std::shared_ptr<const FrameProducts> products =
+      ComputeProducts(solved_image, CameraInfo{}, options, needs);
   const int64_t pixels = moments.geometry.pixel_count();
-  std::vector<float>& plane = buffers.plane;
-  std::vector<uint8_t>& flags = buffers.flags;
-  std::vector<uint8_t>& range_flags = buffers.range_flags;
-  plane.resize(pixels);
-  buffers.second_plane.resize(pixels);
-
-  for (int64_t p = 0; p < pixels; ++p) {
-    plane[p] = solved.valid(p) ? static_cast<float>(solved.c0(p)) : kNaN;
+  if (absl::Status s = file.Write(Product::kZerothMoment, frame, 0, products->c0); !s.ok()) {
+    return s;
   }
-  if (absl::Status s = file.Write(Product::kZerothMoment, frame, 0, plane); !s.ok()) return s;
-
-  // /range_m and the no-return bit of /flags come from MESE unless only Pisarenko runs.
-  if (HasMese(args_.method)) {
-    range_flags = solved.flags;
-    MeseRange(solved, range_options_, plane, range_flags);
-    flags.resize(pixels);
-    MergeNoReturn(solved.flags, range_flags, plane, flags);
-    if (absl::Status s = file.Write(Product::kRange, frame, 0, plane); !s.ok()) return s;
-  }
-  if (HasPisarenko(args_.method)) {
-    const PisarenkoImage pisarenko = EstimatePisarenko(solved);
-    for (auto [product, values] : {std::pair{Product::kPisarenkoPhase, &pisarenko.phase},
-                                   std::pair{Product::kPisarenkoWeight, &pisarenko.weight},
-                                   std::pair{Product::kPisarenkoUniform, &pisarenko.uniform}}) {
+  if (absl::Status s = file.Write(Product::kRange, frame, 0, products->range_m); !s.ok()) return s;
+  if (pisarenko) {
+    const PisarenkoImage& returns = *products->pisarenko;
+    for (auto [product, values] :
+         {std::pair{Product::kPisarenkoPhase, &returns.phase},
+          std::pair{Product::kPisarenkoWeight, &returns.weight},
+          std::pair{Product::kPisarenkoUniform, &returns.uniform},
+          std::pair{Product::kPisarenkoRange, &products->pisarenko_range_m},
+          std::pair{Product::kPisarenkoDirect, &products->direct},
+          std::pair{Product::kPisarenkoIndirect, &products->indirect}}) {
       if (absl::Status s = file.Write(product, frame, 0, *values); !s.ok()) return s;
     }
-    range_flags = solved.flags;
-    PisarenkoRange(pisarenko, range_options_, plane, range_flags);
-    if (absl::Status s = file.Write(Product::kPisarenkoRange, frame, 0, plane); !s.ok()) return s;
-    if (!HasMese(args_.method)) {
-      flags.resize(pixels);
-      MergeNoReturn(solved.flags, range_flags, plane, flags);
-      if (absl::Status s = file.Write(Product::kRange, frame, 0, plane); !s.ok()) return s;
-    }
-    SeparateDirectIndirect(pisarenko, args_.threshold, plane, buffers.second_plane);
-    if (absl::Status s = file.Write(Product::kPisarenkoDirect, frame, 0, plane); !s.ok()) return s;
-    if (absl::Status s = file.Write(Product::kPisarenkoIndirect, frame, 0, buffers.second_plane);
-        !s.ok()) {
-      return s;
-    }
   }
-  if (absl::Status s = file.WriteFlags(frame, flags); !s.ok()) return s;
-  for (uint8_t f : flags) {
+  if (absl::Status s = file.WriteFlags(frame, products->flags); !s.ok()) return s;
+  for (uint8_t f : products->flags) {
     counts.biased += (f & kFlagBiased) != 0;
     counts.invalid += (f & kFlagInvalidInput) != 0;
     counts.no_return += (f & kFlagNoReturn) != 0;

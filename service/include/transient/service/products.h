@@ -1,5 +1,6 @@
-// The products of one transient frame (DESIGN.md, "The data path", step 4), computed once per
-// frame from the per-pixel solved state for the union of what the subscribers asked for.
+// The daemon's side of the products: sets of wire products, what they need of the core's
+// products of a frame (frame_products.h), and the resolution of slice and moment depth requests
+// against the sensor.
 #pragma once
 
 #include <cstdint>
@@ -8,14 +9,18 @@
 #include <span>
 #include <vector>
 
-#include "transient/drivers/capture_source.h"
+#include "transient/reconstruct/frame_products.h"
 #include "transient/reconstruct/moment_depth_map.h"
 #include "transient/reconstruct/reconstructor.h"
 #include "transient/v1/transient.pb.h"
 
 namespace transient::service {
 
-enum class RangeMethod { kMese, kPisarenko };
+using ::transient::FrameProducts;
+using ::transient::MomentDepthSpec;
+using ::transient::ProductNeeds;
+using ::transient::ProductOptions;
+using ::transient::RangeMethod;
 
 // A set of v1::Product values.
 class ProductSet {
@@ -37,28 +42,6 @@ class ProductSet {
 };
 
 
-struct SliceImages {
-  std::vector<float> density;     // [slices, pixels], per radian of phase (thesis eq. 8.3)
-  std::vector<float> cumulative;  // [slices, pixels] (thesis eq. 8.9); empty unless asked
-};
-
-// A MOMENT_DEPTH request resolved against the sensor (v1::MomentDepthRequest): equal specs of
-// several subscribers share one map per frame.
-struct MomentDepthSpec {
-  double near_m = 0.0;
-  double far_m = 1.0;
-  double sigma_px = 1.0;  // 0 = no filter
-  MomentMapFormat format = MomentMapFormat::kOptimized64;
-  bool from_returns = false;  // Pisarenko returns instead of the single depth
-
-  MomentDepthMapOptions MapOptions() const {
-    return {.normalisation = {.near_m = near_m, .far_m = far_m},
-            .sigma_px = sigma_px,
-            .format = format};
-  }
-  friend auto operator<=>(const MomentDepthSpec&, const MomentDepthSpec&) = default;
-};
-
 // At most this many distinct MOMENT_DEPTH specs are computed per frame for all streams.
 inline constexpr int kMaxMomentDepthSpecs = 8;
 
@@ -70,48 +53,9 @@ absl::StatusOr<MomentDepthSpec> ResolveMomentDepthSpec(const v1::MomentDepthRequ
                                                        ImageGeometry sensor,
                                                        double unambiguous_range_m);
 
-struct ProductOptions {
-  double base_frequency_hz = 23e6;
-  RangeMethod range_method = RangeMethod::kMese;
-  double threshold = 0.1;
-};
-
-// Everything a subscriber may ask of one frame. Planes not asked for by anyone are empty.
-struct FrameProducts {
-  uint64_t sequence = 0;
-  ImageGeometry geometry;
-  int order = 0;
-  double base_frequency_hz = 0.0;
-  std::shared_ptr<const SolvedImage> solved;        // always: MOMENT_STATE, GetPixel
-  std::shared_ptr<const PisarenkoImage> pisarenko;  // when range or separation needed it
-  std::vector<uint8_t> flags;                       // PixelFlag bits, incl. kFlagNoReturn
-  std::vector<float> range_m, depth_m, amplitude, c0, direct, indirect;
-  std::map<std::vector<double>, SliceImages> slices;  // keyed by their phases, radians
-  std::map<MomentDepthSpec, std::shared_ptr<const MomentDepthMap>> moment_depth;
-};
-
-// What to compute: products, and per phase list of SLICES/CUMULATIVE requests which of the two.
-struct SliceNeed {
-  bool density = false;
-  bool cumulative = false;
-};
-struct ProductNeeds {
-  ProductSet products;
-  std::map<std::vector<double>, SliceNeed> slice_phases;
-  std::vector<MomentDepthSpec> moment_depth;  // distinct specs, for MOMENT_DEPTH
-};
-
-// Computes the needed planes from the solved state (with the kernels of reconstructor.h).
-// `camera` gives the intrinsics for DEPTH (Z = range / |(x - cx)/fx, (y - cy)/fy, 1|; the lens
-// distortion is not removed). MOMENT_DEPTH maps are built from DEPTH, or from the Pisarenko
-// returns converted to depth the same way; a spec whose map cannot be built (which Resolve
-// rules out) is left out of the frame, so that its subscribers get no frame rather than a wrong
-// one.
-std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const SolvedImage> solved,
-                                                     const CameraInfo& camera,
-                                                     const ProductOptions& options,
-                                                     const ProductNeeds& needs,
-                                                     uint64_t sequence);
+// The core's products (frame_products.h) that a set of wire products needs, with the slice
+// lists and moment depth specs of the requests.
+ProductNeeds NeedsFor(const ProductSet& products);
 
 // Phases (radians in [0, 2*pi)) of the slices of a request at base frequency f: `bins` uniform
 // bins, or listed bin indices of `bins`, or listed round-trip times of flight (ns).
