@@ -16,6 +16,7 @@
 #include "absl/strings/str_join.h"
 #include "transient/formats/moment_file.h"
 #include "transient/formats/moment_file_writer.h"
+#include "tools/transient/capture_moments.h"
 #include "transient/formats/atomic_output.h"
 #include "transient/drivers/calibration_capture.h"
 #include "transient/formats/calibration_file.h"
@@ -36,16 +37,6 @@ namespace {
 // How long a recording waits for a frame before it calls the source lost. Generous: a real
 // camera delivers a frame every few milliseconds, and replay or the simulator at once.
 constexpr absl::Duration kFrameTimeout = absl::Seconds(10);
-// Dropped cycles listed by name in a summary; the rest are only counted.
-constexpr size_t kMaxListedProblems = 5;
-
-bool Cancelled(const CommandHooks& hooks) {
-  return hooks.cancel != nullptr && hooks.cancel->load();
-}
-
-void Progress(const CommandHooks& hooks, int64_t done, int64_t total) {
-  if (hooks.on_progress) hooks.on_progress(done, total);
-}
 
 absl::Status Prefixed(absl::string_view prefix, const absl::Status& status) {
   return absl::Status(status.code(), absl::StrCat(prefix, ": ", status.message()));
@@ -111,7 +102,7 @@ absl::StatusOr<RecordSummary> RunRecord(const RecordArgs& args, const CommandHoo
   std::optional<CaptureWriter> writer;
   RawFrame frame;
   absl::Status failure;
-  while (!Cancelled(hooks)) {
+  while (!hooks.cancelled()) {
     if (args.frames > 0 && summary.raw_frames >= args.frames * per_cycle) break;
     if (args.seconds > 0 && elapsed() >= args.seconds && summary.raw_frames % per_cycle == 0) break;
     absl::Status next = source.Next(kFrameTimeout, &frame);
@@ -149,13 +140,13 @@ absl::StatusOr<RecordSummary> RunRecord(const RecordArgs& args, const CommandHoo
     }
     ++summary.raw_frames;
     if (args.frames > 0) {
-      Progress(hooks, summary.raw_frames, args.frames * per_cycle);
+      hooks.Progress(summary.raw_frames, args.frames * per_cycle);
     } else {
-      Progress(hooks, std::min<int64_t>(static_cast<int64_t>(elapsed() * 10), args.seconds * 10),
+      hooks.Progress(std::min<int64_t>(static_cast<int64_t>(elapsed() * 10), args.seconds * 10),
                static_cast<int64_t>(args.seconds * 10));
     }
   }
-  summary.interrupted = Cancelled(hooks);
+  summary.interrupted = hooks.cancelled();
   (void)source.Stop();
   summary.seconds = elapsed();
   summary.cycles = summary.raw_frames / per_cycle;
@@ -204,14 +195,14 @@ absl::StatusOr<CalibrateSummary> RunCalibrate(const CalibrateArgs& args,
   const ImageGeometry geometry = source.camera().geometry;
   absl::StatusOr<CalibrationCapture> measured = CaptureCalibration(
       source, args.takes,
-      {.on_take = [&](int done, int total) { Progress(hooks, done, total); },
+      {.on_take = [&](int done, int total) { hooks.Progress(done, total); },
        .cancel = hooks.cancel});
   if (absl::IsCancelled(measured.status())) {
     return absl::CancelledError("interrupted; no calibration written");
   }
   if (!measured.ok()) return measured.status();
   const CalibrationTable& table = measured->table;
-  if (Cancelled(hooks)) return absl::CancelledError("interrupted; no calibration written");
+  if (hooks.cancelled()) return absl::CancelledError("interrupted; no calibration written");
   if (absl::Status status = WriteCalibrationFile(args.output_path, table); !status.ok()) {
     return status;
   }
@@ -249,110 +240,47 @@ absl::StatusOr<MomentsSummary> RunMoments(const MomentsArgs& args, const Command
   absl::StatusOr<CaptureReader> capture = CaptureReader::Open(args.capture_path);
   if (!capture.ok()) return capture.status();
   const AcquisitionSchedule& schedule = capture->schedule();
-  const ImageGeometry geometry = capture->camera().geometry;
 
   MomentsSummary summary{.output_path = args.output_path};
-  std::shared_ptr<const CalibrationTable> calibration;
-  if (!args.calibration_path.empty()) {
-    absl::StatusOr<CalibrationTable> read = ReadCalibrationFile(args.calibration_path);
-    if (!read.ok()) return read.status();
-    calibration = std::make_shared<const CalibrationTable>(*std::move(read));
-    summary.calibration = args.calibration_path;
-  } else if (capture->calibration().has_value() && !args.uncalibrated) {
-    calibration = std::make_shared<const CalibrationTable>(*capture->calibration());
-    summary.calibration = absl::StrCat(args.capture_path, ": /calibration");
-  } else if (!args.uncalibrated) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        args.capture_path, ": no calibration: pass --calibration FILE (made by transient "
-        "calibrate) or --uncalibrated"));
-  } else {
-    summary.calibration = "none";
-  }
-  // Measures only (reconstruct solves): the solve options are the defaults, never used here.
-  absl::StatusOr<FramePipeline> pipeline = FramePipeline::Create(
-      schedule, geometry,
-      MeasureOptions{.calibration = calibration,
-                     .smoothing_sigma_px = args.smoothing_sigma_px,
-                     .video = args.video},
-      SolveOptions{});
-  if (absl::IsFailedPrecondition(pipeline.status())) {
-    return Prefixed(absl::StrCat(summary.calibration, " does not fit ", args.capture_path),
-                    pipeline.status());
-  }
+  absl::StatusOr<FramePipeline> pipeline =
+      CapturePipeline(*capture,
+                      {.calibration_path = args.calibration_path,
+                       .uncalibrated = args.uncalibrated,
+                       .smoothing_sigma_px = args.smoothing_sigma_px,
+                       .video = args.video},
+                      &summary.calibration);
   if (!pipeline.ok()) return pipeline.status();
 
   absl::StatusOr<AtomicOutput> output = AtomicOutput::Prepare(args.output_path);
   if (!output.ok()) return output.status();
   absl::StatusOr<MomentFileWriter> writer = MomentFileWriter::Create(
       output->temporary_path(),
-      MomentFileHeader{.geometry = geometry, .order = schedule.order(),
+      MomentFileHeader{.geometry = capture->camera().geometry, .order = schedule.order(),
                        .base_frequency_hz = schedule.options().base_frequency_hz,
                        .zeroth = schedule.options().zeroth, .source = args.capture_path,
                        .calibration = summary.calibration,
                        .smoothing_sigma_px = args.smoothing_sigma_px});
   if (!writer.ok()) return WithFinalPath(writer.status(), args.output_path);
-  absl::StatusOr<CycleAssembler> assembler = CycleAssembler::Create(schedule, geometry);
-  if (!assembler.ok()) return assembler.status();
 
-  auto problem = [&](const absl::Status& status) {
-    if (summary.problems.size() < kMaxListedProblems) {
-      summary.problems.push_back(std::string(status.message()));
-    }
-  };
-  MomentImage moments;
-  RawFrame frame;
-  DemodulationReport report;
-  for (int64_t i = 0; i < capture->frames(); ++i) {
-    if (Cancelled(hooks)) return absl::CancelledError("interrupted; no moment file written");
-    if (absl::Status status = capture->Read(i, &frame); !status.ok()) {
-      ++summary.raw_frames_dropped;  // its cycle is then incomplete and dropped below
-      problem(status);
-      continue;
-    }
-    const double timestamp_s = frame.config.timestamp_s;
-    absl::StatusOr<bool> complete = assembler->Add(std::move(frame));
-    if (!complete.ok()) {
-      if (absl::IsDataLoss(complete.status())) ++summary.cycles_dropped;
-      problem(complete.status());
-    }
-    if (!complete.ok() || !*complete) {
-      Progress(hooks, i + 1, capture->frames());
-      continue;
-    }
-    std::vector<RawFrame> cycle = assembler->TakeCycle();
-    double cycle_start_s = timestamp_s;
-    for (const RawFrame& f : cycle) cycle_start_s = std::min(cycle_start_s, f.config.timestamp_s);
-    if (absl::Status status = pipeline->Measure(cycle, &moments, &report); !status.ok()) {
-      ++summary.cycles_dropped;
-      problem(status);
-      continue;
-    }
-    summary.raw_frames_rejected += static_cast<int64_t>(report.rejected.size());
-    summary.filled_pixels += report.filled_pixels;
-    summary.saturated_pixels += report.saturated_pixels;
-    if (absl::Status status = writer->Append(moments, cycle_start_s); !status.ok()) {
-      return WithFinalPath(status, args.output_path);
-    }
-    ++summary.frames_written;
-    Progress(hooks, i + 1, capture->frames());
-  }
-  if (assembler->frames_pending() > 0) {
-    ++summary.cycles_dropped;
-    problem(absl::DataLossError(absl::StrCat(
-        "the last transient frame is incomplete (", assembler->frames_pending(), " of ",
-        schedule.raw_frames_per_frame(), " raw frames)")));
-  }
-  summary.raw_frames_dropped += assembler->dropped_frames();
-  if (summary.frames_written == 0) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        args.capture_path, ": no complete transient frame among its ", capture->frames(),
-        " raw frames (", schedule.raw_frames_per_frame(), " make one: ", schedule.Describe(),
-        ")", summary.problems.empty() ? "" : absl::StrCat("; ", summary.problems.front())));
-  }
+  CaptureMeasureCounts counts;
+  absl::Status measured = MeasureCapture(
+      *capture, *pipeline, hooks, &counts,
+      [&](const MomentImage& moments, double cycle_start_s) {
+        return WithFinalPath(writer->Append(moments, cycle_start_s), args.output_path);
+      });
+  if (absl::IsCancelled(measured)) return absl::CancelledError("interrupted; no moment file written");
+  if (!measured.ok()) return measured;
+  summary.frames_written = counts.frames;
+  summary.cycles_dropped = counts.cycles_dropped;
+  summary.raw_frames_dropped = counts.raw_frames_dropped;
+  summary.raw_frames_rejected = counts.raw_frames_rejected;
+  summary.filled_pixels = counts.filled_pixels;
+  summary.saturated_pixels = counts.saturated_pixels;
+  summary.problems = std::move(counts.problems);
   if (absl::Status status = writer->Close(); !status.ok()) {
     return WithFinalPath(status, args.output_path);
   }
-  if (Cancelled(hooks)) return absl::CancelledError("interrupted; no moment file written");
+  if (hooks.cancelled()) return absl::CancelledError("interrupted; no moment file written");
   if (absl::Status status = output->Commit(); !status.ok()) return status;
   return summary;
 }

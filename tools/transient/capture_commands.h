@@ -12,16 +12,9 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "tools/transient/command_hooks.h"
 
 namespace transient::tools {
-
-struct CommandHooks {
-  // Progress: work done of total (frames or cycles, as the command says).
-  std::function<void(int64_t done, int64_t total)> on_progress = nullptr;
-  // When it becomes true the command stops at the next frame: a recording is closed and kept
-  // (Cancelled is not returned then), other outputs are not written (Cancelled).
-  const std::atomic<bool>* cancel = nullptr;
-};
 
 // `transient record --source URI --out FILE (--frames N | --seconds S)` and, through
 // SimulatorUri() (simulator.h), `transient sim SCENE --out FILE ...`.

@@ -95,15 +95,10 @@ absl::Status FrameReconstructor::Run(const MomentImage& moments, int64_t frame,
   const auto solved_image = std::make_shared<SolvedImage>(Solve(moments, solve_options_));
   const SolvedImage& solved = *solved_image;
   const bool pisarenko = HasPisarenko(args_.method);
-  const ProductNeeds needs{.range = true,
-                           .c0 = true,
-                           .direct_indirect = pisarenko,
-                           .pisarenko = pisarenko,
-                           .pisarenko_range = pisarenko};
-  const ProductOptions options{
-      .base_frequency_hz = range_options_.base_frequency_hz,
-      .range_method = HasMese(args_.method) ? RangeMethod::kMese : RangeMethod::kPisarenko,
-      .threshold = args_.threshold};
+  const ProductNeeds needs = NeedsOf(args_.method);
+  const ProductOptions options = OptionsOf({.method = args_.method,
+                                            .base_frequency_hz = range_options_.base_frequency_hz,
+                                            .threshold = args_.threshold});
   const std::shared_ptr<const FrameProducts> products =
       ComputeProducts(solved_image, CameraInfo{}, options, needs);
   const int64_t pixels = moments.geometry.pixel_count();
@@ -180,18 +175,6 @@ absl::Status CheckOutputIsNotInput(const ReconstructArgs& args) {
 }
 
 }  // namespace
-
-absl::string_view MethodName(Method method) {
-  switch (method) {
-    case Method::kMese:
-      return "mese";
-    case Method::kPisarenko:
-      return "pisarenko";
-    case Method::kBoth:
-      return "both";
-  }
-  return "unknown";
-}
 
 absl::string_view BiasModeName(BiasMode mode) {
   return mode == BiasMode::kRaiseZeroth ? "raise" : "scale";

@@ -12,6 +12,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "tools/transient/frame_reconstruction.h"
 #include "tools/transient/frame_slice.h"
 #include "transient/reconstruct/biasing.h"
 #include "transient/reconstruct/image.h"
@@ -19,10 +20,6 @@
 
 namespace transient::tools {
 
-// Which estimate(s) to compute; /range_m is MESE's unless only Pisarenko is computed.
-enum class Method { kMese, kPisarenko, kBoth };
-
-absl::string_view MethodName(Method method);        // "mese", "pisarenko", "both"
 absl::string_view BiasModeName(BiasMode mode);      // "raise", "scale"
 absl::string_view ZerothName(ZerothMoment zeroth);  // "measured", "estimate"
 

@@ -2,7 +2,6 @@
 // one pass over the frames, then draw frame by frame.
 #include "tools/transient/view_command.h"
 
-#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -18,9 +17,10 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
+#include "tools/transient/capture_moments.h"
 #include "tools/transient/daemon_frame_source.h"
+#include "tools/transient/moment_frame_source.h"
 #include "tools/transient/figure.h"
 #include "transient/formats/moment_file.h"
 #include "tools/transient/pixel_plot.h"
@@ -32,32 +32,6 @@
 
 namespace transient::tools {
 namespace {
-
-// A directory under the system's temporary directory, removed with its contents.
-class TemporaryDirectory {
- public:
-  static absl::StatusOr<std::unique_ptr<TemporaryDirectory>> Create() {
-    static std::atomic<int> counter{0};
-    std::error_code error;
-    const std::filesystem::path path =
-        std::filesystem::temp_directory_path(error) /
-        absl::StrCat("transient-view-", ::getpid(), "-", counter++);
-    if (error || !std::filesystem::create_directories(path, error) || error) {
-      return absl::UnavailableError(absl::StrCat("cannot create the temporary directory ",
-                                                 path.string(), ": ", error.message()));
-    }
-    return std::unique_ptr<TemporaryDirectory>(new TemporaryDirectory(path));
-  }
-  ~TemporaryDirectory() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  std::string File(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  explicit TemporaryDirectory(std::filesystem::path path) : path_(std::move(path)) {}
-  std::filesystem::path path_;
-};
 
 absl::Status InFile(const std::string& file, const absl::Status& status) {
   return absl::Status(status.code(), absl::StrCat(file, ": ", status.message()));
@@ -601,6 +575,79 @@ class Window : public TransientFrameSource {
   std::string name_;
 };
 
+// A moment or capture input, reconstructed frame by frame as it is drawn.
+struct MomentInput {
+  std::unique_ptr<MomentFrameSource> source = nullptr;
+  std::vector<double> phases = {};
+  std::optional<PinholeIntrinsics> intrinsics = std::nullopt;  // a capture's camera
+  int64_t first_index = 0;                                     // index in the input of frame 0
+};
+
+// What `transient reconstruct` does by default, with the view's bins and bounds.
+ReconstructionSettings ViewSettings(const ViewArgs& args, double base_frequency_hz,
+                                    ZerothMoment zeroth) {
+  return {.method = Method::kBoth,
+          .solve = {.zeroth = zeroth},
+          .base_frequency_hz = base_frequency_hz,
+          .phases = UniformPhases(args.bins),
+          .bounds_r = args.bounds_r};
+}
+
+absl::StatusOr<MomentInput> OpenMomentInput(const ViewArgs& args) {
+  absl::StatusOr<MomentFile> file = MomentFile::Open(args.input_path);
+  if (!file.ok()) return file.status();
+  absl::StatusOr<FrameRange> range = ResolveFrameSlice(args.frames, file->frames());
+  if (!range.ok()) return InFile(args.input_path, range.status());
+  ReconstructionSettings settings = ViewSettings(
+      args, file->base_frequency_hz(), file->zeroth_hint().value_or(ZerothMoment::kMeasured));
+  MomentInput input{.phases = settings.phases, .first_index = range->first};
+  input.source = MomentFrameSource::FromFile(args.input_path, *std::move(file), *range,
+                                             std::move(settings));
+  return input;
+}
+
+// A capture is measured through the frame pipeline (its moments held in memory, a few floats a
+// pixel per frame), then reconstructed frame by frame as drawn.
+absl::StatusOr<MomentInput> MeasureCaptureInput(const ViewArgs& args, const CommandHooks& hooks) {
+  absl::StatusOr<CaptureReader> capture = CaptureReader::Open(args.input_path);
+  if (!capture.ok()) return capture.status();
+  if (!capture->calibration().has_value() && args.calibration_path.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        args.input_path, ": a capture without an embedded calibration: give --calibration "
+                         "FILE (transient calibrate)"));
+  }
+  MomentInput input;
+  absl::StatusOr<PinholeIntrinsics> intrinsics =
+      IntrinsicsOf(*capture, capture->camera().geometry);
+  if (intrinsics.ok()) input.intrinsics = *intrinsics;
+  std::string calibration;
+  absl::StatusOr<FramePipeline> pipeline =
+      CapturePipeline(*capture, {.calibration_path = args.calibration_path}, &calibration);
+  if (!pipeline.ok()) return pipeline.status();
+  std::vector<MomentImage> frames;
+  CaptureMeasureCounts counts;
+  absl::Status measured = MeasureCapture(*capture, *pipeline, {.cancel = hooks.cancel}, &counts,
+                                         [&](const MomentImage& moments, double) {
+                                           frames.push_back(moments);
+                                           return absl::OkStatus();
+                                         });
+  if (absl::IsCancelled(measured)) return absl::CancelledError("interrupted; nothing written");
+  if (!measured.ok()) return measured;
+  absl::StatusOr<FrameRange> range =
+      ResolveFrameSlice(args.frames, static_cast<int64_t>(frames.size()));
+  if (!range.ok()) return InFile(args.input_path, range.status());
+  frames.erase(frames.begin() + range->first + range->count, frames.end());
+  frames.erase(frames.begin(), frames.begin() + range->first);
+  ReconstructionSettings settings =
+      ViewSettings(args, capture->schedule().options().base_frequency_hz,
+                   ZerothMomentOf(capture->schedule().options()));
+  input.phases = settings.phases;
+  input.first_index = range->first;
+  input.source =
+      MomentFrameSource::FromFrames(args.input_path, std::move(frames), std::move(settings));
+  return input;
+}
+
 absl::StatusOr<ViewSummary> View(const ViewArgs& args, const CommandHooks& hooks) {
   const auto start_time = std::chrono::steady_clock::now();
   if (absl::Status status = args.Validate(); !status.ok()) return status;
@@ -610,75 +657,36 @@ absl::StatusOr<ViewSummary> View(const ViewArgs& args, const CommandHooks& hooks
   if (!input.ok()) return input.status();
   ViewSummary summary{.input_path = args.input_path, .output_dir = args.output_dir};
 
-  // A moment or capture file is reconstructed into a temporary reconstruction file first.
-  std::unique_ptr<TemporaryDirectory> temporary;
-  std::string reconstruction_path = args.input_path;
-  std::optional<PinholeIntrinsics> input_intrinsics;
-  bool frames_selected = false;  // the reconstruction holds only the frames asked for
-  if (input->Is(FileFormat::kReconstruction)) {
-    summary.input_kind = "reconstruction";
-  } else if (input->Is(FileFormat::kMoments) || input->Is(FileFormat::kCapture)) {
-    absl::StatusOr<std::unique_ptr<TemporaryDirectory>> directory = TemporaryDirectory::Create();
-    if (!directory.ok()) return directory.status();
-    temporary = *std::move(directory);
-    std::string moments_path = args.input_path;
-    if (input->Is(FileFormat::kCapture)) {
-      summary.input_kind = "capture";
-      absl::StatusOr<CaptureReader> capture = CaptureReader::Open(args.input_path);
-      if (!capture.ok()) return capture.status();
-      if (!capture->calibration().has_value() && args.calibration_path.empty()) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            args.input_path, ": a capture without an embedded calibration: give --calibration "
-                             "FILE (transient calibrate)"));
-      }
-      absl::StatusOr<PinholeIntrinsics> intrinsics = IntrinsicsOf(*capture, capture->camera().geometry);
-      if (intrinsics.ok()) input_intrinsics = *intrinsics;
-      moments_path = temporary->File("moments.h5");
-      MomentsArgs moments{.capture_path = args.input_path,
-                          .output_path = moments_path,
-                          .calibration_path = args.calibration_path};
-      absl::StatusOr<MomentsSummary> made = RunMoments(moments, {.cancel = hooks.cancel});
-      if (!made.ok()) return made.status();
-    } else {
-      summary.input_kind = "moments";
+  if (input->Is(FileFormat::kMoments) || input->Is(FileFormat::kCapture)) {
+    const bool capture = input->Is(FileFormat::kCapture);
+    summary.input_kind = capture ? "capture" : "moments";
+    absl::StatusOr<MomentInput> moments =
+        capture ? MeasureCaptureInput(args, hooks) : OpenMomentInput(args);
+    if (!moments.ok()) return moments.status();
+    if (absl::Status status = Draw(args, *moments->source, moments->phases, moments->intrinsics,
+                                   moments->first_index, hooks, summary);
+        !status.ok()) {
+      return status;
     }
-    reconstruction_path = temporary->File("reconstruction.h5");
-    ReconstructArgs reconstruct{.input_path = moments_path,
-                                .output_path = reconstruction_path,
-                                .bins = args.bins,
-                                .zeroth_from_file = true,
-                                .bounds_r = args.bounds_r,
-                                .frames = args.frames};
-    absl::StatusOr<ReconstructSummary> made =
-        RunReconstruct(reconstruct, {.cancel = hooks.cancel});
-    if (!made.ok()) {
-      // Name the input the user gave, not the temporary moment file.
-      return absl::Status(made.status().code(),
-                          absl::StrReplaceAll(made.status().message(),
-                                              {{moments_path, args.input_path}}));
-    }
-    frames_selected = true;
-  } else {
+    summary.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+    return summary;
+  }
+  if (!input->Is(FileFormat::kReconstruction)) {
     return absl::InvalidArgumentError(absl::StrCat(
         args.input_path, ": /: attribute format: expected '", kReconstructionFormatName, " ",
         kReconstructionFormatMajor, "', '", kMomentFormatName, " ", kMomentFormatMajor, "' or '",
         kCaptureFormatName, " ", kCaptureFormatMajor, "', found '", input->text, "'"));
   }
-
-  absl::StatusOr<ReconstructionReader> reader = ReconstructionReader::Open(reconstruction_path);
+  summary.input_kind = "reconstruction";
+  absl::StatusOr<ReconstructionReader> reader = ReconstructionReader::Open(args.input_path);
   if (!reader.ok()) return reader.status();
   // The frames to draw, as a view of the reader's frames.
-  FrameRange range{.first = 0, .count = reader->frames()};
-  if (!frames_selected) {
-    absl::StatusOr<FrameRange> selected = ResolveFrameSlice(args.frames, reader->frames());
-    if (!selected.ok()) return InFile(args.input_path, selected.status());
-    range = *selected;
-  }
-  const int64_t index_offset = frames_selected ? reader->first_frame() : range.first;
-
-  const Window source(*reader, range, args.input_path);
-  if (absl::Status status = Draw(args, source, reader->phases(), input_intrinsics, index_offset,
-                                 hooks, summary);
+  absl::StatusOr<FrameRange> range = ResolveFrameSlice(args.frames, reader->frames());
+  if (!range.ok()) return InFile(args.input_path, range.status());
+  const Window source(*reader, *range, args.input_path);
+  if (absl::Status status =
+          Draw(args, source, reader->phases(), std::nullopt, range->first, hooks, summary);
       !status.ok()) {
     return status;
   }
