@@ -11,6 +11,7 @@
 #include "absl/strings/str_format.h"
 #include "cycle_queue.h"
 #include "live_calibration.h"
+#include "reconstruction_stage.h"
 #include "recorder.h"
 #include "transient/drivers/source_registry.h"
 #include "transient/formats/hdf5_lock.h"
@@ -64,18 +65,8 @@ struct Pipeline::Impl {
   uint64_t source_frames_lost = 0;        // DataLoss from the source
   uint64_t assembler_dropped_before = 0;  // by assemblers of sources closed since
 
-  // Reconstruction thread only: rebuilt when the schedule or the config changes.
-  struct ReconstructState {
-    std::shared_ptr<const AcquisitionSchedule> schedule;
-    uint64_t config_version = ~uint64_t{0};
-    std::optional<FramePipeline> pipeline;
-    MomentImage moments;
-    DemodulationReport report;
-    uint64_t sequence = 0;
-    // Solved images recycled once no frame holds them any more: at 640x480 a fresh one costs
-    // ~50 MB of page faults per frame.
-    std::vector<std::shared_ptr<SolvedImage>> solved_pool;
-  } reconstruct_state;
+  // Reconstruction thread only (made at Create, with the camera).
+  std::unique_ptr<ReconstructionStage> reconstruction;
 
   Pipeline* owner = nullptr;
   CameraInfo camera;  // of the source at Create; a reopened source must keep the geometry
@@ -330,83 +321,36 @@ void Pipeline::Impl::Publish(std::shared_ptr<const PublishedFrame> frame) {
 }
 
 void Pipeline::Impl::Reconstruct(CycleItem& item) {
-  ReconstructState& st = reconstruct_state;
-
-  ReconstructionConfig cfg;
-  uint64_t version;
-  std::shared_ptr<const CalibrationTable> table;
+  ReconstructionInputs inputs;
   {
     absl::MutexLock lock(&mu);
-    cfg = config;
-    version = config_version;
-    table = calibration;  // Calibrate may replace it meanwhile; this one stays valid
+    inputs.config = config;
+    inputs.config_version = config_version;
+    inputs.calibration = calibration;  // Calibrate may replace it meanwhile; this one stays valid
   }
+  inputs.needs = CurrentNeeds();
   const absl::Time begin = absl::Now();
-  const ImageGeometry geometry = item.frames.front().geometry;
-  if (st.schedule != item.schedule || st.config_version != version) {
-    absl::StatusOr<FramePipeline> created = FramePipeline::Create(
-        *item.schedule, geometry,
-        MeasureOptions{.calibration = table,
-                       .smoothing_sigma_px = cfg.smoothing_sigma_px,
-                       .video = cfg.video},
-        SolveOptions{.bias_epsilon = cfg.bias_epsilon,
-                     .zeroth = ZerothMomentOf(item.schedule->options())});
-    if (!created.ok()) {
-      Log(absl::StrCat("reconstruction: ", created.status().message()));
-      absl::MutexLock lock(&mu);
-      ++stats.cycles_refused;
-      return;
-    }
-    st.pipeline.emplace(*std::move(created));
-    st.schedule = item.schedule;
-    st.config_version = version;
-  }
-  absl::Status status = st.pipeline->measure_options().calibration == table
-                            ? absl::OkStatus()
-                            : st.pipeline->SetCalibration(table);  // Calibrate applied a new one
-  if (status.ok()) status = st.pipeline->Measure(item.frames, &st.moments, &st.report);
-  if (!status.ok()) {
-    Log(absl::StrCat("reconstruction: cycle refused: ", status.message()));
+  absl::StatusOr<std::shared_ptr<const FrameProducts>> products =
+      reconstruction->Run(item, inputs);
+  if (!products.ok()) {
+    Log(absl::StrCat("reconstruction: cycle refused: ", products.status().message()));
     absl::MutexLock lock(&mu);
     ++stats.cycles_refused;
     return;
   }
-  std::shared_ptr<SolvedImage> solved;
-  for (const auto& candidate : st.solved_pool) {
-    // Only the pool holds it: no published frame (nor Latest()) can reach it any more.
-    if (candidate.use_count() == 1) {
-      // Orders our writes after the last reader's release of its reference.
-      std::atomic_thread_fence(std::memory_order_acquire);
-      solved = candidate;
-      break;
-    }
-  }
-  if (solved == nullptr) {
-    solved = std::make_shared<SolvedImage>();
-    if (st.solved_pool.size() < 8) st.solved_pool.push_back(solved);
-  }
-  st.pipeline->Solve(st.moments, solved.get());
-  const ProductOptions product_options{
-      .base_frequency_hz = item.schedule->options().base_frequency_hz,
-      .range_method = cfg.range_method,
-      .threshold = cfg.threshold};
-  const uint64_t sequence = st.sequence++;
-  std::shared_ptr<const FrameProducts> products =
-      ComputeProducts(std::move(solved), camera, product_options, CurrentNeeds(), sequence);
-
   auto frame = std::make_shared<PublishedFrame>();
-  frame->sequence = sequence;
+  frame->sequence = (*products)->sequence;
   double first = item.frames.front().config.timestamp_s;
   for (const RawFrame& f : item.frames) first = std::min(first, f.config.timestamp_s);
   frame->capture_time_s = first;
   frame->arrival = item.arrival;
-  frame->products = products;
+  frame->products = *products;
   frame->publish = absl::Now();
   {
     absl::MutexLock lock(&mu);
-    latest = products;
+    latest = *products;
     ++stats.frames_reconstructed;
-    stats.raw_frames_rejected += st.report.rejected.size();
+    stats.raw_frames_rejected += static_cast<uint64_t>(reconstruction->rejected_frames());
     timings.AddReconstructed(frame->publish - begin, frame->publish);
   }
   Publish(std::move(frame));
@@ -470,6 +414,7 @@ absl::StatusOr<std::unique_ptr<Pipeline>> Pipeline::Create(PipelineOptions optio
     absl::StatusOr<std::unique_ptr<CaptureSource>> opened = open(impl.options.source_uri);
     if (!opened.ok()) return opened.status();
     impl.camera = (*opened)->camera();
+    impl.reconstruction = std::make_unique<ReconstructionStage>(impl.camera);
     const AcquisitionSchedule& schedule = (*opened)->schedule();
     if (impl.options.calibration.has_value()) {
       if (absl::Status status = CheckCalibrationMatches(*impl.options.calibration,

@@ -1,0 +1,63 @@
+// One capture cycle through the frame pipeline into the products of a published frame.
+#include "reconstruction_stage.h"
+
+#include <atomic>
+#include <utility>
+
+namespace transient::service {
+namespace {
+
+// Solved images kept for reuse: enough for the frames subscribers' queues and Latest() hold.
+constexpr size_t kSolvedPoolSize = 8;
+
+}  // namespace
+
+std::shared_ptr<SolvedImage> ReconstructionStage::RecycledSolvedImage() {
+  for (const auto& candidate : solved_pool_) {
+    // Only the pool holds it: no published frame (nor Latest()) can reach it any more.
+    if (candidate.use_count() == 1) {
+      // Orders our writes after the last reader's release of its reference.
+      std::atomic_thread_fence(std::memory_order_acquire);
+      return candidate;
+    }
+  }
+  auto solved = std::make_shared<SolvedImage>();
+  if (solved_pool_.size() < kSolvedPoolSize) solved_pool_.push_back(solved);
+  return solved;
+}
+
+absl::StatusOr<std::shared_ptr<const FrameProducts>> ReconstructionStage::Run(
+    const CycleItem& cycle, const ReconstructionInputs& inputs) {
+  const ReconstructionConfig& config = inputs.config;
+  if (schedule_ != cycle.schedule || config_version_ != inputs.config_version) {
+    absl::StatusOr<FramePipeline> created = FramePipeline::Create(
+        *cycle.schedule, cycle.frames.front().geometry,
+        MeasureOptions{.calibration = inputs.calibration,
+                       .smoothing_sigma_px = config.smoothing_sigma_px,
+                       .video = config.video},
+        SolveOptions{.bias_epsilon = config.bias_epsilon,
+                     .zeroth = ZerothMomentOf(cycle.schedule->options())});
+    if (!created.ok()) return created.status();
+    pipeline_.emplace(*std::move(created));
+    schedule_ = cycle.schedule;
+    config_version_ = inputs.config_version;
+  }
+  if (pipeline_->measure_options().calibration != inputs.calibration) {
+    // Calibrate applied a new one.
+    if (absl::Status status = pipeline_->SetCalibration(inputs.calibration); !status.ok()) {
+      return status;
+    }
+  }
+  if (absl::Status status = pipeline_->Measure(cycle.frames, &moments_, &report_);
+      !status.ok()) {
+    return status;
+  }
+  std::shared_ptr<SolvedImage> solved = RecycledSolvedImage();
+  pipeline_->Solve(moments_, solved.get());
+  const ProductOptions options{.base_frequency_hz = cycle.schedule->options().base_frequency_hz,
+                               .range_method = config.range_method,
+                               .threshold = config.threshold};
+  return ComputeProducts(std::move(solved), camera_, options, inputs.needs, sequence_++);
+}
+
+}  // namespace transient::service
