@@ -5,6 +5,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "transient/formats/format_tag.h"
+#include "transient/reconstruct/status_context.h"
 
 namespace transient {
 namespace {
@@ -104,7 +105,7 @@ absl::StatusOr<ReconstructionFile> ReconstructionFile::Create(const std::string&
   }
   const hid_t id = file.file_.get();
   const auto failed = [&](const absl::Status& status) {
-    return absl::Status(status.code(), absl::StrCat(path, ": ", status.message()));
+    return WithContext(path, status);
   };
   if (absl::Status status = WriteRootAttributes(id, header); !status.ok()) return failed(status);
   if (header.pisarenko) {

@@ -10,6 +10,7 @@
 #include "transient/formats/atomic_output.h"
 #include "transient/formats/calibration_file.h"
 #include "transient/formats/hdf5_lock.h"
+#include "transient/reconstruct/status_context.h"
 
 namespace transient::service {
 namespace {
@@ -87,7 +88,7 @@ absl::StatusOr<CalibrationOutcome> MeasureLiveCalibration(
           WriteCalibrationFile(request.output_path, measured->table, CommitMode::kNeverReplace);
     }
     if (!status.ok()) {
-      return absl::Status(status.code(), absl::StrCat("output_path: ", status.message()));
+      return WithContext("output_path", status);
     }
   }
   return CalibrationOutcome{.table = std::move(measured->table),
