@@ -131,4 +131,22 @@ absl::Status WithFinalPath(const absl::Status& status, absl::string_view final_p
   return absl::Status(status.code(), out);
 }
 
+absl::Status WriteTextFile(const std::string& path, absl::string_view content, CommitMode mode) {
+  absl::StatusOr<AtomicOutput> output = AtomicOutput::Prepare(path, mode);
+  if (!output.ok()) return output.status();
+  std::FILE* file = std::fopen(output->temporary_path().c_str(), "wb");
+  if (file == nullptr) {
+    return absl::PermissionDeniedError(
+        absl::StrCat(path, ": cannot create (", std::strerror(errno), ")"));
+  }
+  const bool written = std::fwrite(content.data(), 1, content.size(), file) == content.size();
+  int error = written ? 0 : errno;
+  if (std::fclose(file) != 0 && error == 0) error = errno;
+  if (!written || error != 0) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat(path, ": cannot write (", std::strerror(error != 0 ? error : EIO), ")"));
+  }
+  return output->Commit();
+}
+
 }  // namespace transient

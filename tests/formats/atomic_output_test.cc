@@ -243,5 +243,31 @@ TEST(AtomicOutput, WithFinalPathNamesTheFileTheUserAskedFor) {
   EXPECT_THAT(WithFinalPath(absl::OkStatus(), path), IsOk());
 }
 
+TEST(WriteTextFile, WritesAndReplacesWholeAndLeavesNoTemporary) {
+  ScratchDirectory scratch;
+  const std::string path = scratch.File("summary.json");
+  ASSERT_THAT(WriteTextFile(path, "{\"frames\": 1}\n"), IsOk());
+  EXPECT_EQ(ReadText(path), "{\"frames\": 1}\n");
+  ASSERT_THAT(WriteTextFile(path, "{}\n"), IsOk());
+  EXPECT_EQ(ReadText(path), "{}\n");
+  ASSERT_THAT(WriteTextFile(scratch.File("empty.txt"), ""), IsOk());
+  EXPECT_EQ(ReadText(scratch.File("empty.txt")), "");
+  EXPECT_THAT(scratch.Entries(), ElementsAre("empty.txt", "summary.json"));
+}
+
+TEST(WriteTextFile, RefusesWhatItCannotWriteNamingThePathAndKeepsWhatIsThere) {
+  ScratchDirectory scratch;
+  const std::string path = scratch.File("kept.txt");
+  WriteText(path, "old");
+  EXPECT_THAT(WriteTextFile(path, "new", CommitMode::kNeverReplace),
+              StatusIs(absl::StatusCode::kAlreadyExists, HasSubstr("kept.txt: exists")));
+  EXPECT_EQ(ReadText(path), "old");
+  EXPECT_THAT(WriteTextFile(scratch.File("missing/out.json"), "{}"),
+              StatusIs(absl::StatusCode::kNotFound, HasSubstr("missing/out.json")));
+  EXPECT_THAT(WriteTextFile(scratch.path().string(), "{}"),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("is a directory")));
+  EXPECT_THAT(scratch.Entries(), ElementsAre("kept.txt"));
+}
+
 }  // namespace
 }  // namespace transient

@@ -70,4 +70,10 @@ class AtomicOutput {
 // user asked for.
 absl::Status WithFinalPath(const absl::Status& status, absl::string_view final_path);
 
+// A small text file (JSON, SVG, a summary) written whole through an AtomicOutput. Errors name
+// `path`: Prepare's and Commit's codes, ResourceExhausted when the bytes cannot be written
+// (a full disk), PermissionDenied when the temporary file cannot be created.
+[[nodiscard]] absl::Status WriteTextFile(const std::string& path, absl::string_view content,
+                                         CommitMode mode = CommitMode::kReplace);
+
 }  // namespace transient
