@@ -6,7 +6,7 @@
 #include <random>
 #include <vector>
 
-#include "tools/transient/bench_command.h"
+#include "tools/transient/commands/bench_command.h"
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/levinson.h"
 

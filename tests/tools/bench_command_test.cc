@@ -1,5 +1,5 @@
 // `transient bench`: its options are validated, and its table and JSON carry every row.
-#include "tools/transient/bench_command.h"
+#include "tools/transient/commands/bench_command.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -44,6 +44,18 @@ TEST(BenchCommand, TableAndJsonCarryEveryRowWithItsRatio) {
   EXPECT_THAT(json, HasSubstr("\"ratio\": 50"));
   EXPECT_THAT(json, HasSubstr("\"unit\": \"frames/s\""));
   EXPECT_EQ(std::count(json.begin(), json.end(), '{'), 3);  // the document and two rows
+}
+
+TEST(BenchCommand, JsonWritesARowWithoutATimingAsNull) {
+  // A kernel that did not run (0 units/s) has no ratio: null, not "nan" or "inf", which no JSON
+  // reader accepts.
+  const std::vector<BenchRow> rows = {{.kernel = "pipeline \"quoted\"", .order = 4, .width = 8,
+                                       .height = 8, .threads = 1, .unit = "frames/s",
+                                       .reference = 0.0, .optimized = 0.0}};
+  const std::string json = FormatBenchJson(rows);
+  EXPECT_THAT(json, HasSubstr("\"ratio\": null"));
+  EXPECT_THAT(json, HasSubstr("\"kernel\": \"pipeline \\\"quoted\\\"\""));
+  EXPECT_THAT(json, ::testing::Not(HasSubstr("nan")));
 }
 
 }  // namespace

@@ -2,7 +2,7 @@
 // the real daemon (pipeline and gRPC server in this process, on a loopback port), and a fake
 // service only for what the real daemon cannot be made to do. The connection itself is the
 // client library's, tested in tests/client.
-#include "tools/transient/client_command.h"
+#include "tools/transient/client/client_command.h"
 
 #include <gmock/gmock.h>
 #include <grpcpp/grpcpp.h>
@@ -34,7 +34,7 @@
 #include "tests/support/status_matchers.h"
 #include "tests/support/subprocess.h"
 #include "tests/tools/image_readers.h"
-#include "tools/transient/image_writers.h"
+#include "tools/transient/common/image_writers.h"
 #include "transient/formats/capture_file.h"
 #include "transient/drivers/capture_source.h"
 #include "transient/service/pipeline.h"

@@ -1,5 +1,5 @@
 // The command line's exit codes and its one-line error messages.
-#include "tools/transient/exit_status.h"
+#include "tools/transient/common/exit_status.h"
 
 #include <gtest/gtest.h>
 

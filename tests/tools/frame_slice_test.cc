@@ -1,5 +1,5 @@
 // --frames parses Python slices and resolves them strictly against the file's frame count.
-#include "tools/transient/frame_slice.h"
+#include "tools/transient/common/frame_slice.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

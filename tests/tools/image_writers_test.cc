@@ -1,5 +1,5 @@
 // PNG and float TIFF writers read back with libpng and libtiff, and the colour map's invariants.
-#include "tools/transient/image_writers.h"
+#include "tools/transient/common/image_writers.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -14,8 +14,11 @@
 #include "transient/drivers/simulator.h"
 #include "tests/support/status_matchers.h"
 #include "tests/formats/test_files.h"
-#include "tools/transient/capture_commands.h"
-#include "tools/transient/reconstruct_command.h"
+#include "tools/transient/commands/calibrate_command.h"
+#include "tools/transient/commands/info_command.h"
+#include "tools/transient/commands/moments_command.h"
+#include "tools/transient/commands/record_command.h"
+#include "tools/transient/commands/reconstruct_command.h"
 #include "transient/formats/capture_file.h"
 #include "transient/reconstruct/moments.h"
 

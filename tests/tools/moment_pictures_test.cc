@@ -1,6 +1,6 @@
 // The moment-depth pictures of `transient view` (moment_pictures.h): known answers on a box in
 // front of a wall, the defaults, the files they write, and the options they refuse.
-#include "tools/transient/moment_pictures.h"
+#include "tools/transient/view/moment_pictures.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -24,10 +24,13 @@
 #include "tests/support/video_probe.h"
 #include "tests/support/status_matchers.h"
 #include "tests/formats/view_test_files.h"
-#include "tools/transient/capture_commands.h"
-#include "tools/transient/exit_status.h"
+#include "tools/transient/commands/calibrate_command.h"
+#include "tools/transient/commands/info_command.h"
+#include "tools/transient/commands/moments_command.h"
+#include "tools/transient/commands/record_command.h"
+#include "tools/transient/common/exit_status.h"
 #include "transient/formats/reconstruction_reader.h"
-#include "tools/transient/view_command.h"
+#include "tools/transient/view/view_command.h"
 
 namespace transient::tools {
 namespace {

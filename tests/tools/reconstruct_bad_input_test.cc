@@ -18,8 +18,8 @@
 #include "tests/support/status_matchers.h"
 #include "tests/support/unprivileged.h"
 #include "tests/formats/test_files.h"
-#include "tools/transient/exit_status.h"
-#include "tools/transient/reconstruct_command.h"
+#include "tools/transient/common/exit_status.h"
+#include "tools/transient/commands/reconstruct_command.h"
 
 namespace transient::tools {
 namespace {

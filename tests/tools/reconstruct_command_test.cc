@@ -1,6 +1,6 @@
 // `transient reconstruct` in-process: files with known per-pixel measures, written through
 // HDF5's C API in every accepted storage variant, come back as the right products.
-#include "tools/transient/reconstruct_command.h"
+#include "tools/transient/commands/reconstruct_command.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -411,7 +411,7 @@ TEST_F(ReconstructOptions, ScaleBiasModeKeepsTheMeasuredZerothMoment) {
 TEST_F(ReconstructOptions, ProgressHookSeesEveryFrameInOrder) {
   std::vector<std::pair<int64_t, int64_t>> calls;
   ASSERT_THAT(
-      RunReconstruct(args_, {.on_frame = [&](int64_t done,
+      RunReconstruct(args_, {.on_progress = [&](int64_t done,
                                              int64_t total) { calls.emplace_back(done, total); }})
           .status(),
       IsOk());
@@ -434,7 +434,7 @@ TEST_F(ReconstructOptions, InterruptedRunLeavesNoOutput) {
   std::atomic<bool> cancel{false};
   const absl::Status status =
       RunReconstruct(args_,
-                     {.on_frame = [&](int64_t, int64_t) { cancel = true; }, .cancel = &cancel})
+                     {.on_progress = [&](int64_t, int64_t) { cancel = true; }, .cancel = &cancel})
           .status();
   EXPECT_THAT(status, StatusIs(absl::StatusCode::kCancelled, HasSubstr("interrupted")));
   EXPECT_THAT(dir_.Entries(), ElementsAre("in.h5"));

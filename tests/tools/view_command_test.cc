@@ -1,6 +1,6 @@
 // `transient view`: every picture kind from a small synthetic reconstruction file with known
 // values, the run-wide colour scale, the streak image, PLY, the video, and bad inputs.
-#include "tools/transient/view_command.h"
+#include "tools/transient/view/view_command.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -12,6 +12,9 @@
 #include <sstream>
 
 
+#include "tools/transient/commands/calibrate_command.h"
+#include "tools/transient/commands/moments_command.h"
+#include "tools/transient/commands/record_command.h"
 #include "tests/tools/image_readers.h"
 #include "tests/support/scratch_directory.h"
 #include "transient/drivers/simulator.h"
@@ -19,8 +22,8 @@
 #include "tests/support/status_matchers.h"
 #include "tests/formats/test_files.h"
 #include "tests/formats/view_test_files.h"
-#include "tools/transient/exit_status.h"
-#include "tools/transient/pixel_plot.h"
+#include "tools/transient/common/exit_status.h"
+#include "tools/transient/view/pixel_plot.h"
 #include "transient/formats/reconstruction_reader.h"
 
 namespace transient::tools {

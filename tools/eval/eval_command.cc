@@ -11,6 +11,8 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "tools/eval/svg_plot.h"
+#include "tools/transient/common/json_text.h"
+#include "transient/formats/atomic_output.h"
 
 namespace transient::eval {
 namespace {
@@ -75,9 +77,7 @@ std::string Number(double value, int digits) {
   return std::isfinite(value) ? absl::StrFormat("%.*f", digits, value) : std::string("–");
 }
 
-std::string JsonNumber(double value) {
-  return std::isfinite(value) ? absl::StrFormat("%.6g", value) : std::string("null");
-}
+using ::transient::tools::JsonNumber;
 
 std::vector<ResultRow> SortedRows(const ExperimentResult& result, TruthKind truth) {
   std::vector<ResultRow> rows;

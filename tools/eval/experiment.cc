@@ -449,7 +449,7 @@ absl::StatusOr<ExperimentResult> RunExperiments(const ExperimentOptions& options
             orders = truth == TruthKind::kKSparse ? std::vector<int>{k} : options.orders;
           }
           for (int order : orders) {
-            if (hooks.cancel != nullptr && hooks.cancel->load()) {
+            if (hooks.cancelled()) {
               return absl::CancelledError("transient eval interrupted");
             }
             double seconds = 0.0;
@@ -458,7 +458,7 @@ absl::StatusOr<ExperimentResult> RunExperiments(const ExperimentOptions& options
                             ConfigKey(truth, k, method, order, noisy), &seconds);
             result.rows.push_back(
                 Evaluate(truth, k, method, order, noisy, responses, recs, seconds, options));
-            if (hooks.on_progress) hooks.on_progress(++done, total);
+            hooks.Progress(++done, total);
           }
         }
       }

@@ -15,6 +15,7 @@
 #include "absl/status/statusor.h"
 #include "tools/eval/ground_truth.h"
 #include "tools/eval/metrics.h"
+#include "tools/transient/common/command_hooks.h"
 #include "transient/reconstruct/cumulative.h"
 #include "transient/reconstruct/reconstructor.h"
 
@@ -118,10 +119,9 @@ struct ExperimentResult {
   double seconds = 0.0;
 };
 
-struct ExperimentHooks {
-  std::function<void(int64_t done, int64_t total)> on_progress = nullptr;
+// A command's progress and cancel flag (Cancelled when it becomes true), and a line per stage.
+struct ExperimentHooks : tools::CommandHooks {
   std::function<void(const std::string& line)> on_stage = nullptr;
-  const std::atomic<bool>* cancel = nullptr;  // Cancelled when it becomes true
 };
 
 // Runs every (truth, noise, method, m) configuration. InvalidArgument for bad options;

@@ -213,18 +213,4 @@ std::string RenderSvg(const std::vector<PlotPanel>& panels, int columns, const s
   return svg;
 }
 
-absl::Status WriteTextFile(const std::string& path, const std::string& content) {
-  std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (file == nullptr) {
-    return absl::PermissionDeniedError(
-        absl::StrCat(path, ": cannot open for writing: ", std::strerror(errno)));
-  }
-  const bool written = std::fwrite(content.data(), 1, content.size(), file) == content.size();
-  const bool closed = std::fclose(file) == 0;
-  if (!written || !closed) {
-    return absl::ResourceExhaustedError(absl::StrCat(path, ": write failed (disk full?)"));
-  }
-  return absl::OkStatus();
-}
-
 }  // namespace transient::eval

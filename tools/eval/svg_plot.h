@@ -43,8 +43,4 @@ std::vector<double> NiceTicks(double low, double high, int target);
 std::string RenderSvg(const std::vector<PlotPanel>& panels, int columns, const std::string& title,
                       double panel_width = 380.0, double panel_height = 280.0);
 
-// Writes `content` to `path`: PermissionDenied naming the path when it cannot be opened,
-// ResourceExhausted when writing fails.
-absl::Status WriteTextFile(const std::string& path, const std::string& content);
-
 }  // namespace transient::eval

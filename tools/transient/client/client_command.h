@@ -4,13 +4,13 @@
 
 #include <cstdint>
 #include <optional>
-#include <span>
 #include <string>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "tools/transient/capture_commands.h"
+#include "tools/transient/client/client_summary.h"
+#include "tools/transient/common/command_hooks.h"
 
 namespace transient::tools {
 
@@ -56,51 +56,6 @@ struct ClientArgs {
   absl::Status Validate() const;
 };
 
-struct ClientLatency {
-  // Milliseconds from the end of the frame's capture to its arrival here: the daemon's own
-  // Frame.latency_s plus (arrival wall time - Frame.publish_time). NaN when no frame had a
-  // publish time.
-  double p50_ms = 0.0, p90_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;
-};
-
-struct ClientStateChange {
-  int64_t after_frames = 0;  // frames with images received before the announcement
-  std::string state = {};    // STREAMING, RECONNECTING, ENDED
-};
-
-struct ClientSummary {
-  std::string address = {};
-  std::string source_uri = {};
-  std::string version = {};  // the daemon's
-  int camera_width = 0, camera_height = 0;
-  int64_t frames = 0;               // frames with images, decoded
-  int64_t corrupt_frames = 0;       // frames with an image DecodeImage refused (dropped)
-  int64_t state_announcements = 0;  // frames without images
-  std::vector<ClientStateChange> state_changes = {};
-  double seconds = 0.0;  // from opening the stream to the last frame
-  double rate_hz = 0.0;  // (frames - 1) / (last arrival - first arrival); 0 below two frames
-  ClientLatency latency = {};
-  uint64_t frames_missed = 0;  // sum of Frame.missed: frames the daemon dropped for us
-  std::vector<double> slice_time_of_flight_ns = {};  // of the last frame's slices
-  float slice_scale = 0.0f;       // colour scale of the slice images (value at full colour)
-  float cumulative_scale = 0.0f;  // of the cumulative images
-  // MOMENT_DEPTH of the last frame: the map's parameters as the daemon sent them, and the
-  // virtual plane's occlusion computed from it.
-  struct MomentDepth {
-    int bits = 0;
-    double near_m = 0.0, far_m = 0.0, sigma_px = 0.0;
-    bool from_returns = false;
-    int64_t empty_pixels = 0;
-    double virtual_plane_m = 0.0;
-    double occluded_share = 0.0;  // mean occlusion fraction of the plane over the image
-  };
-  std::optional<MomentDepth> moment_depth = std::nullopt;
-  std::vector<std::string> files = {};  // written, relative to output_dir, summary.json last
-  std::string output_dir = {};
-  bool interrupted = false;
-  std::string stream_error = {};  // how the stream ended when it failed
-};
-
 // Connects to transientd at args.connect with the client library (client::Client: Unavailable
 // "cannot reach transientd at ADDR within 5 s" when it does not answer in connect_timeout_s),
 // calls GetInfo, then StreamFrames, and receives frames until args.frames frames with images
@@ -126,9 +81,5 @@ struct ClientSummary {
 // args.frames (total 0 with --seconds).
 [[nodiscard]] absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args,
                                                       const CommandHooks& hooks = {});
-
-// The summary as JSON (the content of summary.json) and as a few lines for a terminal.
-std::string ClientSummaryJson(const ClientSummary& summary);
-std::string FormatClientSummary(const ClientSummary& summary);
 
 }  // namespace transient::tools

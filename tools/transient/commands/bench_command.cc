@@ -1,7 +1,7 @@
 // Measurements of `transient bench`. Each row times the reference kernel and the optimized
 // kernel on the same frame in the same run; the reference runs single-threaded (it has no
 // threads), the optimized one with the row's thread count.
-#include "tools/transient/bench_command.h"
+#include "tools/transient/commands/bench_command.h"
 
 #include <chrono>
 #include <cmath>
@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "transient/reconstruct/kernels.h"
+#include "tools/transient/common/json_text.h"
 
 namespace transient::tools {
 namespace {
@@ -164,11 +165,12 @@ std::string FormatBenchJson(const std::vector<BenchRow>& rows) {
   for (size_t i = 0; i < rows.size(); ++i) {
     const BenchRow& row = rows[i];
     absl::StrAppendFormat(&json,
-                          "    {\"kernel\": \"%s\", \"m\": %d, \"width\": %d, \"height\": %d, "
-                          "\"threads\": %d, \"unit\": \"%s\", \"reference\": %.6g, "
-                          "\"optimized\": %.6g, \"ratio\": %.4g}%s\n",
-                          row.kernel, row.order, row.width, row.height, row.threads, row.unit,
-                          row.reference, row.optimized, row.ratio(),
+                          "    {\"kernel\": %s, \"m\": %d, \"width\": %d, \"height\": %d, "
+                          "\"threads\": %d, \"unit\": %s, \"reference\": %s, "
+                          "\"optimized\": %s, \"ratio\": %s}%s\n",
+                          JsonString(row.kernel), row.order, row.width, row.height, row.threads,
+                          JsonString(row.unit), JsonNumber(row.reference),
+                          JsonNumber(row.optimized), JsonNumber(row.ratio()),
                           i + 1 < rows.size() ? "," : "");
   }
   json += "  ]\n}\n";

@@ -1,5 +1,5 @@
 // A capture's cycles through the frame pipeline, with the calibration the capture asks for.
-#include "tools/transient/capture_moments.h"
+#include "tools/transient/commands/capture_moments.h"
 
 #include <algorithm>
 #include <memory>

@@ -9,7 +9,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "tools/transient/command_hooks.h"
+#include "tools/transient/common/command_hooks.h"
 #include "transient/formats/capture_file.h"
 #include "transient/reconstruct/frame_pipeline.h"
 

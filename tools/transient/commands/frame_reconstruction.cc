@@ -1,5 +1,5 @@
 // One frame of moments solved into the planes a reconstruction holds.
-#include "tools/transient/frame_reconstruction.h"
+#include "tools/transient/commands/frame_reconstruction.h"
 
 #include <memory>
 #include <string>

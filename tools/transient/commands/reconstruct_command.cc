@@ -1,5 +1,5 @@
 // The reconstruct command: read a frame, solve it, write its products, repeat.
-#include "tools/transient/reconstruct_command.h"
+#include "tools/transient/commands/reconstruct_command.h"
 
 #include <unistd.h>
 
@@ -7,7 +7,6 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <limits>
 #include <new>
 #include <span>
 #include <system_error>
@@ -19,6 +18,7 @@
 #include "transient/formats/reconstruction_file.h"
 #include "transient/formats/atomic_output.h"
 #include "transient/reconstruct/frame_products.h"
+#include "transient/reconstruct/status_context.h"
 
 namespace transient::tools {
 namespace {
@@ -27,10 +27,6 @@ bool HasMese(Method method) { return method != Method::kPisarenko; }
 bool HasPisarenko(Method method) { return method != Method::kMese; }
 
 // Adds `file`'s name to a status from a component that does not know it.
-absl::Status InFile(const std::string& file, const absl::Status& status) {
-  return absl::Status(status.code(), absl::StrCat(file, ": ", status.message()));
-}
-
 // Per-frame working buffers, allocated once for the whole run.
 struct FrameBuffers {
   MomentImage moments;
@@ -261,7 +257,7 @@ uint64_t PhysicalMemoryBytes() {
 }
 
 absl::StatusOr<ReconstructSummary> ReconstructFile(const ReconstructArgs& given_args,
-                                                   const ReconstructHooks& hooks) {
+                                                   const CommandHooks& hooks) {
   const auto start_time = std::chrono::steady_clock::now();
   if (absl::Status status = given_args.Validate(); !status.ok()) return status;
 
@@ -270,12 +266,12 @@ absl::StatusOr<ReconstructSummary> ReconstructFile(const ReconstructArgs& given_
   ReconstructArgs args = given_args;
   if (args.zeroth_from_file && input->zeroth_hint().has_value()) args.zeroth = *input->zeroth_hint();
   absl::StatusOr<FrameRange> frames = ResolveFrameSlice(args.frames, input->frames());
-  if (!frames.ok()) return InFile(args.input_path, frames.status());
+  if (!frames.ok()) return WithContext(args.input_path, frames.status());
 
   const std::vector<double> phases = UniformPhases(args.bins);
   FrameReconstructor reconstructor(args, input->base_frequency_hz(), phases);
   if (absl::Status status = reconstructor.ValidateOptions(); !status.ok()) {
-    return InFile(args.input_path, status);
+    return WithContext(args.input_path, status);
   }
   if (absl::Status status = CheckOutputIsNotInput(args); !status.ok()) return status;
   const uint64_t pixels = static_cast<uint64_t>(input->geometry().pixel_count());
@@ -321,7 +317,7 @@ absl::StatusOr<ReconstructSummary> ReconstructFile(const ReconstructArgs& given_
   FrameBuffers buffers;
   FrameCounts counts;
   for (int64_t k = 0; k < frames->count; ++k) {
-    if (hooks.cancel != nullptr && hooks.cancel->load()) {
+    if (hooks.cancelled()) {
       return absl::CancelledError("interrupted; no output written");
     }
     if (absl::Status status = input->ReadFrame(frames->first + k, &buffers.moments); !status.ok()) {
@@ -335,10 +331,10 @@ absl::StatusOr<ReconstructSummary> ReconstructFile(const ReconstructArgs& given_
         !status.ok()) {
       return status;
     }
-    if (hooks.on_frame) hooks.on_frame(k + 1, frames->count);
+    hooks.Progress(k + 1, frames->count);
   }
   // An interrupt during the last frame still means "stop": nothing is committed.
-  if (hooks.cancel != nullptr && hooks.cancel->load()) {
+  if (hooks.cancelled()) {
     return absl::CancelledError("interrupted; no output written");
   }
   if (absl::Status status = file->Close(); !status.ok()) return status;
@@ -356,7 +352,7 @@ absl::StatusOr<ReconstructSummary> ReconstructFile(const ReconstructArgs& given_
 }  // namespace
 
 absl::StatusOr<ReconstructSummary> RunReconstruct(const ReconstructArgs& args,
-                                                  const ReconstructHooks& hooks) {
+                                                  const CommandHooks& hooks) {
   absl::StatusOr<ReconstructSummary> result;
   // Exceptions (an allocation that fails, a library that throws) unwind through
   // ReconstructFile, so its AtomicOutput removes the partial file; they become statuses.

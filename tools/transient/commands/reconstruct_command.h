@@ -3,17 +3,16 @@
 // runs in-process; main.cc only maps its arguments and its status to the command line.
 #pragma once
 
-#include <atomic>
 #include <cstdint>
-#include <functional>
 #include <optional>
 #include <string>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "tools/transient/common/command_hooks.h"
 #include "absl/strings/string_view.h"
-#include "tools/transient/frame_reconstruction.h"
-#include "tools/transient/frame_slice.h"
+#include "tools/transient/commands/frame_reconstruction.h"
+#include "tools/transient/common/frame_slice.h"
 #include "transient/reconstruct/biasing.h"
 #include "transient/reconstruct/image.h"
 #include "transient/reconstruct/reconstructor.h"
@@ -75,18 +74,11 @@ struct ReconstructSummary {
 // return, 0.02 s -> out.h5"
 std::string FormatSummary(const ReconstructSummary& summary);
 
-struct ReconstructHooks {
-  // Called after each frame has been written, with the frames done and the frames selected.
-  std::function<void(int64_t done, int64_t total)> on_frame = nullptr;
-  // When it becomes true the run stops before the next frame with a Cancelled status.
-  const std::atomic<bool>* cancel = nullptr;
-};
-
 // Runs the command. Bad options or a bad input file fail before any output exists; any
 // failure, cancellation included, leaves no output (and no temporary) file behind. Error
 // messages name the file, the object and the rule (see MomentFile::Open). Pixel-level
 // problems (NaN/Inf, c_0 <= 0, masked pixels) never fail the run: they set /flags bits.
 [[nodiscard]] absl::StatusOr<ReconstructSummary> RunReconstruct(const ReconstructArgs& args,
-                                                                const ReconstructHooks& hooks = {});
+                                                                const CommandHooks& hooks = {});
 
 }  // namespace transient::tools

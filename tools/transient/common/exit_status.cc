@@ -1,7 +1,5 @@
 // Status to exit code and message.
-#include "tools/transient/exit_status.h"
-
-#include <algorithm>
+#include "tools/transient/common/exit_status.h"
 
 #include "absl/strings/str_cat.h"
 

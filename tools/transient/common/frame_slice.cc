@@ -1,5 +1,5 @@
 // Parsing and resolution of --frames slices.
-#include "tools/transient/frame_slice.h"
+#include "tools/transient/common/frame_slice.h"
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"

@@ -1,5 +1,5 @@
 // PNG (libpng) and float TIFF (libtiff) writers and the colour map of the `transient` tool.
-#include "tools/transient/image_writers.h"
+#include "tools/transient/common/image_writers.h"
 
 #include <png.h>
 #include <tiffio.h>
@@ -16,8 +16,6 @@
 #include <filesystem>
 
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_format.h"
-
 namespace transient::tools {
 namespace {
 

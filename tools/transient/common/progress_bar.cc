@@ -1,5 +1,5 @@
 // Progress bar on a terminal.
-#include "tools/transient/progress_bar.h"
+#include "tools/transient/common/progress_bar.h"
 
 #include <unistd.h>
 

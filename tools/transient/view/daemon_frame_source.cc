@@ -1,5 +1,5 @@
 // Receives transientd frames (StreamFrames) and turns their images into TransientFrames.
-#include "tools/transient/daemon_frame_source.h"
+#include "tools/transient/view/daemon_frame_source.h"
 
 #include <algorithm>
 #include <cmath>
@@ -16,6 +16,7 @@
 #include "transient/formats/reconstruction_reader.h"
 #include "transient/v1/transient.pb.h"
 #include "transient/wire/product_registry.h"
+#include "transient/reconstruct/status_context.h"
 
 namespace transient::tools {
 namespace {
@@ -152,10 +153,6 @@ absl::Status FillFrame(const std::vector<DecodedImage>& images, uint64_t sequenc
         absl::StrCat("frame ", sequence, " lacks ", absl::StrJoin(missing, ", ")));
   }
   return absl::OkStatus();
-}
-
-absl::Status Prefixed(absl::string_view prefix, const absl::Status& status) {
-  return absl::Status(status.code(), absl::StrCat(prefix, status.message()));
 }
 
 }  // namespace
@@ -295,8 +292,8 @@ absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
         "interrupted while receiving frames from transientd at ", address, "; nothing written"));
   }
   if (dropped > options.frames) {
-    return Prefixed(
-        absl::StrCat("transientd at ", address, ": ", dropped, " unusable frames, the last: "),
+    return WithContext(
+        absl::StrCat("transientd at ", address, ": ", dropped, " unusable frames, the last"),
         last_dropped);
   }
   if (dropped > 0) {
@@ -310,8 +307,8 @@ absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
     // A replay that reached its end (OutOfRange) still leaves the frames it sent; anything
     // else, or nothing received, is an error.
     if (source->frames_.empty() || ended.code() != absl::StatusCode::kOutOfRange) {
-      return Prefixed(absl::StrCat("stream from transientd at ", address, " ended after ",
-                                   source->frames(), " of ", options.frames, " frames: "),
+      return WithContext(absl::StrCat("stream from transientd at ", address, " ended after ",
+                                   source->frames(), " of ", options.frames, " frames"),
                       ended);
     }
     source->notes_.push_back(absl::StrCat("transientd sent ", source->frames(), " of the ",

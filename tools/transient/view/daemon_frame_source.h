@@ -14,7 +14,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
-#include "tools/transient/point_cloud.h"
+#include "tools/transient/view/point_cloud.h"
 #include "transient/formats/transient_frame.h"
 
 namespace transient::tools {

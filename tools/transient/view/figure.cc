@@ -1,5 +1,5 @@
 // Layout and drawing of labelled raster figures with OpenCV (Hershey fonts, no font files).
-#include "tools/transient/figure.h"
+#include "tools/transient/view/figure.h"
 
 #include <algorithm>
 #include <cassert>

@@ -14,7 +14,7 @@
 #include <opencv2/imgproc.hpp>  // the Hershey fonts
 
 #include "absl/status/status.h"
-#include "tools/transient/image_writers.h"
+#include "tools/transient/common/image_writers.h"
 #include "transient/reconstruct/image.h"
 
 namespace transient::tools {

@@ -1,9 +1,10 @@
 // Moment frames reconstructed on demand.
-#include "tools/transient/moment_frame_source.h"
+#include "tools/transient/view/moment_frame_source.h"
 
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "transient/reconstruct/status_context.h"
 
 namespace transient::tools {
 
@@ -51,7 +52,7 @@ absl::Status MomentFrameSource::ReadFrame(int64_t frame, ProductSet wanted,
   }
   out->index = frame;
   if (absl::Status status = ReconstructFrame(*moments, settings_, wanted, out); !status.ok()) {
-    return absl::Status(status.code(), absl::StrCat(name_, ": ", status.message()));
+    return WithContext(name_, status);
   }
   return absl::OkStatus();
 }

@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "tools/transient/frame_reconstruction.h"
-#include "tools/transient/frame_slice.h"
+#include "tools/transient/commands/frame_reconstruction.h"
+#include "tools/transient/common/frame_slice.h"
 #include "transient/formats/moment_file.h"
 #include "transient/formats/transient_frame.h"
 

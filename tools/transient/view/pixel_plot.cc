@@ -1,5 +1,5 @@
 // Line plots of one pixel's reconstruction drawn with OpenCV.
-#include "tools/transient/pixel_plot.h"
+#include "tools/transient/view/pixel_plot.h"
 
 #include <algorithm>
 #include <cassert>
@@ -12,8 +12,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "tools/transient/figure.h"
-#include "tools/transient/view_pictures.h"
+#include "tools/transient/view/figure.h"
+#include "tools/transient/view/view_pictures.h"
 
 namespace transient::tools {
 namespace {

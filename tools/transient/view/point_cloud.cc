@@ -1,5 +1,5 @@
 // Back-projection of range images along pixel rays and the PLY writer.
-#include "tools/transient/point_cloud.h"
+#include "tools/transient/view/point_cloud.h"
 
 #include <bit>
 #include <cerrno>

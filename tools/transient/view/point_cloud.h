@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "tools/transient/image_writers.h"
+#include "tools/transient/common/image_writers.h"
 #include "transient/reconstruct/camera_model.h"
 #include "transient/reconstruct/image.h"
 

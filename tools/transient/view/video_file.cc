@@ -1,5 +1,5 @@
 // ffmpeg behind a Status interface: raw RGB frames go to its standard input, H.264 MP4 comes out.
-#include "tools/transient/video_file.h"
+#include "tools/transient/view/video_file.h"
 
 #include <fcntl.h>
 #include <signal.h>

@@ -13,11 +13,11 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "tools/transient/capture_commands.h"
-#include "tools/transient/frame_slice.h"
-#include "tools/transient/moment_pictures.h"
-#include "tools/transient/point_cloud.h"
-#include "tools/transient/view_pictures.h"
+#include "tools/transient/common/command_hooks.h"
+#include "tools/transient/common/frame_slice.h"
+#include "tools/transient/view/moment_pictures.h"
+#include "tools/transient/view/point_cloud.h"
+#include "tools/transient/view/view_pictures.h"
 
 namespace transient::tools {
 

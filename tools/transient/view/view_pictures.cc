@@ -1,5 +1,5 @@
 // Colour-mapped, labelled images of one transient frame.
-#include "tools/transient/view_pictures.h"
+#include "tools/transient/view/view_pictures.h"
 
 #include <algorithm>
 #include <array>

@@ -9,7 +9,7 @@
 #include <span>
 #include <vector>
 
-#include "tools/transient/figure.h"
+#include "tools/transient/view/figure.h"
 #include "transient/formats/transient_frame.h"
 
 namespace transient::tools {
