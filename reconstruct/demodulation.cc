@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "transient/reconstruct/percentile.h"
 
 namespace transient {
 namespace {
@@ -21,15 +22,9 @@ constexpr int64_t kMaxScoreSamples = 1024;
 // Describing a dozen missing exposures in one message helps nobody; the count says the rest.
 constexpr int kMaxListedExposures = 4;
 
-// Median of `v` (mean of the two middle values for an even count); reorders `v`. `v` non-empty.
-double MedianInPlace(std::span<double> v) {
-  const size_t half = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + half, v.end());
-  const double upper = v[half];
-  if (v.size() % 2 == 1) return upper;
-  const double lower = *std::max_element(v.begin(), v.begin() + half);
-  return 0.5 * (lower + upper);
-}
+// Median of `v` (mean of the two middle values for an even count: the 50th type-7 percentile);
+// reorders `v`. `v` non-empty and without NaN.
+double MedianInPlace(std::span<double> v) { return Percentile(v, 50.0); }
 
 // A pixel the demodulator must not use: unreadable (NaN) or at or above saturation.
 inline bool Unusable(float value, float saturation_level) { return !(value < saturation_level); }

@@ -20,6 +20,7 @@ double PercentileOf(std::span<T> values, double percent) {
   if (lower + 1 == values.size()) return low;
   // After nth_element everything above `lower` is >= values[lower]; the next rank is their min.
   const double high = *std::min_element(values.begin() + lower + 1, values.end());
+  if (high == low) return low;  // also two equal infinities, whose difference is NaN
   return low + (rank - static_cast<double>(lower)) * (high - low);
 }
 

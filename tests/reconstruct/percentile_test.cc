@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <vector>
@@ -44,6 +45,18 @@ TEST(Percentile, PercentsOutsideZeroToHundredAreClamped) {
   std::vector<double> values = {2.0, 1.0, 3.0};
   EXPECT_EQ(Percentile(std::span<double>(values), -5.0), 1.0);
   EXPECT_EQ(Percentile(std::span<double>(values), 250.0), 3.0);
+}
+
+TEST(Percentile, MedianOfAnEvenCountIsTheMeanOfTheMiddleValuesEvenWhenInfinite) {
+  // The demodulator's robust scores are medians of ratios that may be infinite (a score over a
+  // zero scale): two infinite middle values give infinity, not inf - inf = NaN.
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> values = {4.0, 1.0, 3.0, 2.0};
+  EXPECT_EQ(Percentile(std::span<double>(values), 50.0), 2.5);
+  values = {inf, 1.0, inf, inf};
+  EXPECT_EQ(Percentile(std::span<double>(values), 50.0), inf);
+  values = {inf, 1.0, 2.0, inf};
+  EXPECT_EQ(Percentile(std::span<double>(values), 50.0), inf);
 }
 
 }  // namespace

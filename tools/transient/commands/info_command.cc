@@ -16,6 +16,7 @@
 #include "transient/formats/h5.h"
 #include "transient/formats/moment_file.h"
 #include "transient/reconstruct/acquisition.h"
+#include "transient/reconstruct/percentile.h"
 
 namespace transient::tools {
 namespace {
@@ -107,12 +108,9 @@ absl::StatusOr<std::string> DescribeCalibration(const std::string& path) {
       angle.push_back(std::arg(k));
     }
     if (modulus.empty()) continue;
-    auto median = [](std::vector<double>& v) {
-      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      return v[v.size() / 2];
-    };
     absl::StrAppend(&text, absl::StrFormat("\n  k_%d: median |k| %.4g, median arg %.4f rad", j,
-                                           median(modulus), median(angle)));
+                                           Percentile(std::span<double>(modulus), 50.0),
+                                           Percentile(std::span<double>(angle), 50.0)));
   }
   return text;
 }
