@@ -103,7 +103,7 @@ TEST(Experiments, MeseHasTheLowestCumulativeErrorOnNoiseFreeContinuousReturns) {
 
 TEST(Experiments, MeseCutsTheCornersRangeErrorSeveralTimesComparedToTheNaivePhase) {
   // Without noise only: at SNR 70:1 per measurement (no averaged takes, unlike the 4 takes of
-  // thesis fig. 8.13) MESE's RMSE is only ~1.5x below the naive phase's (see the README table).
+  // thesis fig. 8.13) MESE's RMSE is only ~1.5x below the naive phase's (see the table in docs/eval.md).
   ExperimentOptions options;
   options.trials = 40;
   options.truths = {TruthKind::kCorner};

@@ -141,7 +141,7 @@ TEST_F(TransientBinary, AllOptionsAreAccepted) {
 }
 
 
-// The measurement commands: the README's sequence runs, and every bad input gets one error line
+// The measurement commands: the sequence of docs/measuring.md runs, and every bad input gets one error line
 // and exit code 2 with nothing written.
 TEST_F(TransientBinary, MeasurementSequenceRunsAndInfoDescribesEachFile) {
   const std::string camera = "width=24&height=18";

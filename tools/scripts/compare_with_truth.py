@@ -17,7 +17,7 @@ SPEED_OF_LIGHT = 299_792_458.0
 
 
 def open_capture(path):
-    # A recording killed while being written opens only in SWMR read mode (README, captures).
+    # A recording killed while being written opens only in SWMR read mode (docs/formats/capture.md).
     try:
         return h5py.File(path, "r")
     except OSError:

@@ -36,7 +36,7 @@ done
 address="127.0.0.1:$(cat "$port_file")"
 echo "demo: transientd serves sim:mirrors on $address (log: $out/transientd.log)"
 
-# Also the moment depth map (README, "Moment depth maps"): the client computes from it how much
+# Also the moment depth map (docs/moment_depth_maps.md): the client computes from it how much
 # of a virtual plane 1.98 m from the camera the real scene (a wall 1.84 to 2.05 m away) hides.
 "$transient" client --connect "$address" --products depth,range,amplitude,slices,moment_depth \
   --bins 64 --moment-near 1.5 --moment-far 2.5 --virtual-plane 1.98 --seconds "$seconds" --out "$out"

@@ -1,5 +1,5 @@
 // The simulator's options: validation, the "sim:<scene>?key=value" URI and the key tables that
-// the command line and the README print.
+// `transient sources`, the help of both programs and docs/measuring.md print.
 #include <cmath>
 #include <functional>
 #include <map>

@@ -17,7 +17,7 @@
 namespace {
 
 constexpr int kFrames = 3;
-// The mirrors scene lies 2..3 m from the camera (README); anything outside 0.5..10 m is wrong.
+// The mirrors scene lies 2..3 m from the camera (docs/measuring.md); anything outside 0.5..10 m is wrong.
 constexpr float kNearestM = 0.5f;
 constexpr float kFarthestM = 10.0f;
 // Most pixels see the scene: a few at silhouettes and in the dark may be invalid (NaN).

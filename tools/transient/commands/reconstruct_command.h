@@ -1,5 +1,5 @@
 // `transient reconstruct IN.h5 OUT.h5`: reconstructs every frame of a moment file and writes
-// the products to a reconstruction file (layouts in README.md). The command
+// the products to a reconstruction file (layouts in docs/formats/). The command
 // runs in-process; main.cc only maps its arguments and its status to the command line.
 #pragma once
 

@@ -24,7 +24,7 @@ struct PointCloud {
 };
 
 // One point range * PixelRay(intrinsics, x, y) per pixel with a finite range (range is the radial distance
-// along the ray, README "Units"); NaN and infinite ranges are skipped. With `amplitude` (one
+// along the ray, docs/reconstruction.md, units.h); NaN and infinite ranges are skipped. With `amplitude` (one
 // value per pixel) each point is coloured ColourMap(amplitude, amplitude_scale).
 PointCloud PointsFromRange(ImageGeometry geometry, std::span<const float> range_m,
                            const PinholeIntrinsics& intrinsics,

@@ -1,4 +1,4 @@
-// Reader of moment files, format `transient-moments 1` (layout in README.md):
+// Reader of moment files, format `transient-moments 1` (layout in docs/formats/moments.md):
 // a stack of trigonometric moment images c_0..c_m, read one frame at a time.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Writer of moment files, format `transient-moments 1` (layout in README.md), one frame at a
+// Writer of moment files, format `transient-moments 1` (layout in docs/formats/moments.md), one frame at a
 // time: what `transient moments` produces from a capture and `transient reconstruct` reads.
 #pragma once
 

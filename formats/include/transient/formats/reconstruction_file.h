@@ -1,5 +1,5 @@
 // Writer of reconstruction files, format `transient-reconstruction 1` (layout in
-// README.md): per-frame product stacks, chunked and written one frame at a time.
+// docs/formats/reconstruction.md): per-frame product stacks, chunked and written one frame at a time.
 #pragma once
 
 #include <array>
@@ -48,7 +48,7 @@ enum class ProductPlanes { kOne, kBins, kOrder };
 enum class ProductGroup { kAlways, kMese, kPisarenko, kBounds };
 
 // Where and how a product is stored: the one place that names the datasets, shared by the
-// writer and the reader; README.md documents the same table.
+// writer and the reader; docs/formats/reconstruction.md documents the same table.
 struct ProductLayout {
   Product product;
   const char* path;

@@ -1,4 +1,4 @@
-// Reader of reconstruction files, format `transient-reconstruction 1` (layout in README.md,
+// Reader of reconstruction files, format `transient-reconstruction 1` (layout in docs/formats/reconstruction.md,
 // written by ReconstructionFile): checks the whole layout at Open, then reads the products a
 // caller asks for one frame at a time into a TransientFrame.
 #pragma once
