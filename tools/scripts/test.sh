@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # make test: every test once under AddressSanitizer + UndefinedBehaviorSanitizer, built with
-# Clang (its thread-safety analysis checks the ABSL_GUARDED_BY annotations; warnings are errors),
+# Clang (its thread-safety analysis checks the ABSL_GUARDED_BY annotations; warnings are errors;
+# Debug at -O0 except the code whose tests compute, which is -O1: the top CMakeLists.txt),
 # then the tests that need an optimised build (ctest label `release`: the optimized kernels as
 # users run them, and the daemon's memory bound measured on resident pages) built with GCC in
 # Release. Prints the wall time of each phase and, at the end, all of them together.
