@@ -17,11 +17,13 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
+#include "tests/client/connect.h"
 #include "tests/client/fake_transient.h"
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/network.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
+#include "tests/support/wait.h"
 
 namespace transient::client {
 namespace {
@@ -31,20 +33,12 @@ using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;
 using ::transient::testing::ClosedPort;
 using ::transient::testing::IsOk;
+using ::transient::testing::MustConnect;
 using ::transient::testing::ScratchDirectory;
+using ::transient::testing::SecondsSince;
 using ::transient::testing::StatusIs;
 
 constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";  // 12.5 frames/s
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-Client MustConnect(const std::string& address) {
-  absl::StatusOr<Client> client = Client::Connect({.address = address});
-  EXPECT_THAT(client.status(), IsOk());
-  return *std::move(client);
-}
 
 TEST(ConnectOptions, BadValuesAreRefusedNamingTheField) {
   EXPECT_THAT((ConnectOptions{.address = "127.0.0.1:1"}).Validate(), IsOk());

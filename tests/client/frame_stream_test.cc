@@ -19,9 +19,11 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
+#include "tests/client/connect.h"
 #include "tests/client/fake_transient.h"
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/status_matchers.h"
+#include "tests/support/wait.h"
 #include "transient/client/client.h"
 #include "transient/reconstruct/moments.h"
 #include "transient/wire/product_registry.h"
@@ -34,20 +36,12 @@ using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;
 using ::transient::service::testing::Request;
 using ::transient::testing::IsOk;
+using ::transient::testing::MustConnect;
+using ::transient::testing::SecondsSince;
 using ::transient::testing::StatusIs;
 
 constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";  // 12.5 frames/s
 constexpr ImageGeometry kSimGeometry{32, 24};
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-Client MustConnect(const std::string& address) {
-  absl::StatusOr<Client> client = Client::Connect({.address = address});
-  EXPECT_THAT(client.status(), IsOk());
-  return *std::move(client);
-}
 
 // The next frame with images, skipping announcements; false when the stream ends first.
 bool NextImages(FrameStream& stream, StreamFrame* frame) {

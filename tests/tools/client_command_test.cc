@@ -33,6 +33,7 @@
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
 #include "tests/support/subprocess.h"
+#include "tests/support/wait.h"
 #include "tests/tools/image_readers.h"
 #include "tools/transient/common/image_writers.h"
 #include "transient/formats/capture_file.h"
@@ -53,6 +54,7 @@ using ::testing::UnorderedElementsAreArray;
 using ::transient::testing::ClosedPort;
 using ::transient::testing::IsOk;
 using ::transient::testing::ScratchDirectory;
+using ::transient::testing::SecondsSince;
 using ::transient::testing::StatusIs;
 
 constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
@@ -195,7 +197,7 @@ TEST(RunClient, InterruptWhileConnectingIsCancelled) {
   EXPECT_THAT(RunClient(args, {.cancel = &cancel}).status(),
               StatusIs(absl::StatusCode::kCancelled, HasSubstr("connecting")));
   // Well before the 30 s connect timeout (generous for a loaded CI machine).
-  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 10.0);
+  EXPECT_LT(SecondsSince(start), 10.0);
 }
 
 TEST(RunClient, OutputPathThatIsAFileIsRefusedBeforeConnecting) {
@@ -513,8 +515,7 @@ TEST(RunClient, SecondsModeStopsWhenTheTimeIsUp) {
   args.seconds = 1.0;
   const auto start = std::chrono::steady_clock::now();
   const absl::StatusOr<ClientSummary> summary = RunClient(args);
-  const double elapsed =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double elapsed = SecondsSince(start);
   ASSERT_THAT(summary.status(), IsOk());
   EXPECT_GT(summary->frames, 0);
   EXPECT_LE(summary->frames, 30);  // 12.5 frames/s for a second, with room for a slow start
