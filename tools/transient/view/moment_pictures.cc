@@ -3,6 +3,7 @@
 #include "tools/transient/view/moment_pictures.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <system_error>
@@ -25,16 +26,28 @@ constexpr MomentMapFormat kFormat = MomentMapFormat::kOptimized64;
 
 std::string SigmaText(double sigma_px) { return absl::StrFormat("%g", sigma_px); }
 
-float Bilinear(std::span<const float> plane, ImageGeometry g, float x, float y) {
+// The four texels around (x, y) in pixels (edges clamped) as (row-major index, weight): the
+// taps of a bilinear fetch.
+using BilinearTaps = std::array<std::pair<size_t, float>, 4>;
+BilinearTaps BilinearTapsAt(ImageGeometry g, float x, float y) {
   const float fx = std::floor(x), fy = std::floor(y);
   const float wx = x - fx, wy = y - fy;
   const int x0 = std::clamp(static_cast<int>(fx), 0, g.width - 1);
   const int x1 = std::clamp(static_cast<int>(fx) + 1, 0, g.width - 1);
   const int y0 = std::clamp(static_cast<int>(fy), 0, g.height - 1);
   const int y1 = std::clamp(static_cast<int>(fy) + 1, 0, g.height - 1);
-  const auto at = [&](int xx, int yy) { return plane[static_cast<size_t>(yy) * g.width + xx]; };
-  return (1 - wy) * ((1 - wx) * at(x0, y0) + wx * at(x1, y0)) +
-         wy * ((1 - wx) * at(x0, y1) + wx * at(x1, y1));
+  return {{
+      {static_cast<size_t>(y0) * g.width + x0, (1 - wx) * (1 - wy)},
+      {static_cast<size_t>(y0) * g.width + x1, wx * (1 - wy)},
+      {static_cast<size_t>(y1) * g.width + x0, (1 - wx) * wy},
+      {static_cast<size_t>(y1) * g.width + x1, wx * wy},
+  }};
+}
+
+float Bilinear(std::span<const float> plane, ImageGeometry g, float x, float y) {
+  float value = 0.0f;
+  for (const auto& [p, w] : BilinearTapsAt(g, x, y)) value += w * plane[p];
+  return value;
 }
 
 }  // namespace
@@ -144,20 +157,8 @@ std::vector<float> MomentPictures::Visibility(const Fragments& fragments, Occlus
     }
     // Bilinear interpolation of the decoded texels; decoding Θ is affine (thesis eq. 4.4), so
     // this equals a renderer's hardware-filtered fetch of the 16-bit channels.
-    const float fx = std::floor(x), fy = std::floor(y);
-    const float wx = x - fx, wy = y - fy;
-    const int x0 = std::clamp(static_cast<int>(fx), 0, g.width - 1);
-    const int x1 = std::clamp(static_cast<int>(fx) + 1, 0, g.width - 1);
-    const int y0 = std::clamp(static_cast<int>(fy), 0, g.height - 1);
-    const int y1 = std::clamp(static_cast<int>(fy) + 1, 0, g.height - 1);
-    const std::array<std::pair<size_t, float>, 4> taps = {{
-        {static_cast<size_t>(y0) * g.width + x0, (1 - wx) * (1 - wy)},
-        {static_cast<size_t>(y0) * g.width + x1, wx * (1 - wy)},
-        {static_cast<size_t>(y1) * g.width + x0, (1 - wx) * wy},
-        {static_cast<size_t>(y1) * g.width + x1, wx * wy},
-    }};
     PowerMomentsF b = {1.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-    for (const auto& [p, w] : taps) {
+    for (const auto& [p, w] : BilinearTapsAt(g, x, y)) {
       for (int k = 0; k < 4; ++k) b[k + 1] += w * (*texels)[4 * p + k];
     }
     const float z = static_cast<float>(range.Normalise(z_f));
