@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -64,6 +65,19 @@ TEST_F(TransientBinary, SourcesListsEverySchemeWithItsKeys) {
   for (const char* text : {"sim:<scene>?key=value", "replay:<capture.h5>", "calibration scene",
                            "m (default 3)", "pace (default realtime)", "width (default 163 px)"}) {
     EXPECT_THAT(result.out, HasSubstr(text));
+  }
+}
+
+TEST_F(TransientBinary, DevicesListsWhatThisMachineHasAndExitsZero) {
+  // This machine has no V4L2 nodes (tests/drivers/v4l2 lists emulated ones); one with cameras
+  // lists them with their URIs.
+  const Result result = Run({"devices"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.err, "");
+  if (std::filesystem::exists("/dev/video0")) {
+    EXPECT_THAT(result.out, HasSubstr("v4l2:/dev/video"));
+  } else {
+    EXPECT_EQ(result.out, "no capture devices found (looked for V4L2 nodes /dev/videoN)\n");
   }
 }
 

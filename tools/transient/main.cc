@@ -21,6 +21,7 @@ std::vector<std::unique_ptr<Subcommand>> AllSubcommands() {
   all.push_back(MakeMomentsCommand());
   all.push_back(MakeInfoCommand());
   all.push_back(MakeSourcesCommand());
+  all.push_back(MakeDevicesCommand());
   all.push_back(MakeClientCommand());
   all.push_back(MakeViewCommand());
   all.push_back(MakeEvalCommand());

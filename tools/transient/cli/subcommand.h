@@ -31,6 +31,7 @@ std::unique_ptr<Subcommand> MakeCalibrateCommand();
 std::unique_ptr<Subcommand> MakeMomentsCommand();
 std::unique_ptr<Subcommand> MakeInfoCommand();
 std::unique_ptr<Subcommand> MakeSourcesCommand();
+std::unique_ptr<Subcommand> MakeDevicesCommand();
 std::unique_ptr<Subcommand> MakeClientCommand();
 std::unique_ptr<Subcommand> MakeViewCommand();
 std::unique_ptr<Subcommand> MakeEvalCommand();

@@ -1,0 +1,25 @@
+// The capture devices this machine shows, for `transient devices`: what a user can put in a
+// source URI. V4L2 nodes today (/dev/videoN with their formats and whether the proposed ToF
+// controls are there); the USB and OpenNI2 sources add theirs here.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace transient {
+
+struct CaptureDevice {
+  std::string uri;                   // what to pass to --source, e.g. "v4l2:/dev/video0"
+  std::string name;                  // the device's own name (V4L2: the card)
+  bool usable = false;               // a capture device we can read
+  std::vector<std::string> details;  // one line each: driver, formats, controls, or what is wrong
+};
+
+// Every device found, in order (V4L2: /dev/videoN by N). `dev_dir` is where device nodes are.
+std::vector<CaptureDevice> ListCaptureDevices(const std::string& dev_dir = "/dev");
+
+// The list as text; with no devices, one line saying so and where it looked.
+std::string DescribeCaptureDevices(const std::vector<CaptureDevice>& devices,
+                                   const std::string& dev_dir = "/dev");
+
+}  // namespace transient

@@ -1,0 +1,88 @@
+// A V4L2 device node through the kernel's ioctl interface (linux/videodev2.h): open, the
+// capabilities, the pixel formats and the controls. Thin RAII over libc open/ioctl (not
+// syscall(), so that umockdev can stand in for the kernel in tests), EINTR retried
+// (../shared/research/v4l2.md §2.1, §2.2, §2.5, §5.1).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+namespace transient::v4l2 {
+
+struct Capabilities {
+  std::string driver;    // v4l2_capability.driver, e.g. "mlx7502x"
+  std::string card;      // the device's name
+  std::string bus_info;
+  uint32_t device_caps = 0;  // of this node (capabilities when the driver has no device_caps)
+  bool capture() const;      // single- or multi-planar video capture
+  bool streaming() const;
+};
+
+struct PixelFormatDescription {
+  uint32_t fourcc = 0;
+  std::string description;  // the driver's, e.g. "12-bit Greyscale (MIPI Packed)"
+};
+
+struct ControlDescription {
+  uint32_t id = 0;
+  std::string name;  // e.g. "TOF Phase Sequence"
+  uint32_t type = 0;  // V4L2_CTRL_TYPE_*
+  int64_t minimum = 0, maximum = 0, default_value = 0;
+  uint64_t step = 0;
+  uint32_t elements = 1;  // dims[0] for arrays (the maximum length of a dynamic array)
+  uint32_t flags = 0;     // V4L2_CTRL_FLAG_*
+  bool dynamic_array() const;
+};
+
+// The proposed ToF control class (V4L2_CTRL_CLASS_TOF, mlx7502x patch v6; not in Debian 12's
+// kernel headers) and the camera trigger controls of the same series.
+constexpr uint32_t kTofControlClass = 0x00a60000;
+constexpr uint32_t kCidTofPhaseSequence = 0x00a60900;
+constexpr uint32_t kCidTofFrequencyModulation = 0x00a60901;
+constexpr uint32_t kCidTofTimeIntegration = 0x00a60902;
+constexpr uint32_t kCidCameraTrigger = 0x009a0925;
+constexpr uint32_t kCidCameraTriggerMode = 0x009a0926;
+
+// A control of the ToF class or a trigger control, by ID or (IDs moved between patch versions)
+// by name.
+bool IsTofControl(const ControlDescription& control);
+// "u16[8] 0..315 step 45", "menu 0..2", "button", ...
+std::string DescribeControlRange(const ControlDescription& control);
+
+class V4l2Device {
+ public:
+  // Opens `path` read-write, non-blocking. NotFound, PermissionDenied, Unavailable (busy or
+  // gone) or FailedPrecondition (not a character device), each naming the path.
+  static absl::StatusOr<V4l2Device> Open(const std::string& path);
+
+  V4l2Device(V4l2Device&& other) noexcept;
+  V4l2Device& operator=(V4l2Device&& other) noexcept;
+  V4l2Device(const V4l2Device&) = delete;
+  V4l2Device& operator=(const V4l2Device&) = delete;
+  ~V4l2Device();
+
+  const std::string& path() const { return path_; }
+
+  // VIDIOC_QUERYCAP. An error names the path and the errno (ENOTTY: not a V4L2 node).
+  absl::StatusOr<Capabilities> QueryCapabilities();
+  // VIDIOC_ENUM_FMT for single-planar capture until the driver says EINVAL.
+  absl::StatusOr<std::vector<PixelFormatDescription>> EnumerateFormats();
+  // VIDIOC_QUERY_EXT_CTRL with NEXT_CTRL | NEXT_COMPOUND until EINVAL; disabled ones skipped.
+  absl::StatusOr<std::vector<ControlDescription>> EnumerateControls();
+
+ private:
+  V4l2Device(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}
+  // ioctl(2), retried on EINTR; -1 with errno set on failure.
+  int Ioctl(unsigned long request, void* argument) const;
+  absl::Status IoctlError(const char* what, int error) const;
+
+  int fd_ = -1;
+  std::string path_;
+};
+
+}  // namespace transient::v4l2

@@ -1,0 +1,153 @@
+// The V4L2 device node and `transient devices` through the real open/stat/ioctl path, on nodes
+// that umockdev emulates in this process (emulated_tof_sensor.h): capabilities, formats, the
+// ToF controls by enumeration, and the nodes that are not what we need.
+#include "v4l2/v4l2_device.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <linux/videodev2.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "tests/drivers/v4l2/emulated_tof_sensor.h"
+#include "tests/support/status_matchers.h"
+#include "transient/drivers/capture_devices.h"
+#include "v4l2/frame_unpacker.h"
+
+namespace transient::v4l2 {
+namespace {
+
+using ::testing::AllOf;
+using ::testing::ElementsAre;
+using ::testing::HasSubstr;
+using ::testing::IsEmpty;
+using ::testing::Not;
+using ::transient::testing::IsOk;
+using ::transient::testing::StatusIs;
+using testing::EmulatedNode;
+using testing::EmulatedTofSensor;
+
+EmulatedNode Mlx75027() {
+  EmulatedNode node;
+  node.formats = {{kFourccY12P, "12-bit Greyscale (MIPI Packed)"}, {kFourccY12, "12-bit Greyscale"}};
+  node.controls = testing::Mlx7502xControls();
+  return node;
+}
+
+class V4l2DeviceTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    // Not a skip: without the preload library the emulation is missing, and ctest sets it.
+    ASSERT_TRUE(EmulatedTofSensor::Available())
+        << "run under LD_PRELOAD=libumockdev-preload.so.0 (ctest does)";
+  }
+  EmulatedTofSensor sensor_;
+};
+
+TEST_F(V4l2DeviceTest, CapabilitiesFormatsAndControlsComeFromTheNode) {
+  sensor_.AddNode(Mlx75027());
+  absl::StatusOr<V4l2Device> device = V4l2Device::Open("/dev/video0");
+  ASSERT_THAT(device.status(), IsOk());
+  absl::StatusOr<Capabilities> caps = device->QueryCapabilities();
+  ASSERT_THAT(caps.status(), IsOk());
+  EXPECT_EQ(caps->driver, "mlx7502x");
+  EXPECT_EQ(caps->card, "MLX75027 ToF");
+  EXPECT_TRUE(caps->capture());
+  EXPECT_TRUE(caps->streaming());
+  absl::StatusOr<std::vector<PixelFormatDescription>> formats = device->EnumerateFormats();
+  ASSERT_THAT(formats.status(), IsOk());
+  ASSERT_EQ(formats->size(), 2u);
+  EXPECT_EQ((*formats)[0].fourcc, kFourccY12P);
+  EXPECT_EQ((*formats)[1].description, "12-bit Greyscale");
+  absl::StatusOr<std::vector<ControlDescription>> controls = device->EnumerateControls();
+  ASSERT_THAT(controls.status(), IsOk());
+  ASSERT_EQ(controls->size(), 6u);
+  const ControlDescription& phases = (*controls)[3];
+  EXPECT_EQ(phases.id, kCidTofPhaseSequence);
+  EXPECT_EQ(phases.name, "TOF Phase Sequence");
+  EXPECT_TRUE(phases.dynamic_array());
+  EXPECT_EQ(phases.elements, 8u);
+  EXPECT_EQ(DescribeControlRange(phases), "u16[<=8] 0..315 step 45");
+  EXPECT_TRUE(IsTofControl(phases));
+  EXPECT_FALSE(IsTofControl((*controls)[0]));  // the driver's output mode
+  EXPECT_EQ(DescribeControlRange((*controls)[1]), "button");
+}
+
+TEST_F(V4l2DeviceTest, ToFControlsUnderOtherIdsAreFoundByName) {
+  // An earlier patch version: the same controls as driver-private IDs.
+  EmulatedNode node = Mlx75027();
+  for (ControlDescription& control : node.controls) {
+    if (control.id >= kTofControlClass) control.id = control.id - kTofControlClass + 0x00981000;
+  }
+  std::sort(node.controls.begin(), node.controls.end(),
+            [](const auto& a, const auto& b) { return a.id < b.id; });
+  sensor_.AddNode(node);
+  absl::StatusOr<V4l2Device> device = V4l2Device::Open("/dev/video0");
+  ASSERT_THAT(device.status(), IsOk());
+  absl::StatusOr<std::vector<ControlDescription>> controls = device->EnumerateControls();
+  ASSERT_THAT(controls.status(), IsOk());
+  int tof = 0;
+  for (const ControlDescription& control : *controls) tof += IsTofControl(control) ? 1 : 0;
+  EXPECT_EQ(tof, 5);
+}
+
+TEST_F(V4l2DeviceTest, DevicesListsTheNodeWithItsFormatsAndToFControls) {
+  sensor_.AddNode(Mlx75027());
+  EmulatedNode other = Mlx75027();
+  other.name = "video1";
+  other.card = "YUYV webcam";
+  other.formats = {{v4l2::Fourcc('Y', 'U', 'Y', 'V'), "YUYV 4:2:2"}};
+  other.controls = {};
+  sensor_.AddNode(other);
+  const std::vector<CaptureDevice> devices = ListCaptureDevices();
+  ASSERT_EQ(devices.size(), 2u);
+  EXPECT_EQ(devices[0].uri, "v4l2:/dev/video0");
+  EXPECT_EQ(devices[0].name, "MLX75027 ToF");
+  EXPECT_TRUE(devices[0].usable);
+  EXPECT_FALSE(devices[1].usable);
+  const std::string text = DescribeCaptureDevices(devices);
+  EXPECT_THAT(text, AllOf(HasSubstr("v4l2:/dev/video0  MLX75027 ToF\n"),
+                          HasSubstr("raw formats we read: Y12P, Y12"),
+                          HasSubstr("ToF control 0x00a60901 \"TOF Frequency Modulation\": "
+                                    "u32[<=1] 4000000..100000000 step 1000000"),
+                          HasSubstr("v4l2:/dev/video1  YUYV webcam  (not usable)"),
+                          HasSubstr("raw formats we read: none; others: YUYV"),
+                          HasSubstr("no ToF controls on this node (0 controls)")));
+}
+
+TEST_F(V4l2DeviceTest, NodesThatAreNotCaptureDevicesSayWhy) {
+  EmulatedNode metadata = Mlx75027();
+  metadata.device_caps = V4L2_CAP_META_CAPTURE | V4L2_CAP_STREAMING;
+  sensor_.AddNode(metadata);
+  EmulatedNode broken = Mlx75027();
+  broken.name = "video2";
+  broken.querycap_errno = ENOTTY;
+  sensor_.AddNode(broken);
+  const std::vector<CaptureDevice> devices = ListCaptureDevices();
+  ASSERT_EQ(devices.size(), 2u);
+  EXPECT_FALSE(devices[0].usable);
+  EXPECT_THAT(devices[0].details, ::testing::Contains(HasSubstr("not a streaming video capture")));
+  EXPECT_FALSE(devices[1].usable);
+  EXPECT_THAT(devices[1].details,
+              ElementsAre(AllOf(HasSubstr("/dev/video2: VIDIOC_QUERYCAP"),
+                                HasSubstr("not a V4L2 node"))));
+  absl::StatusOr<V4l2Device> device = V4l2Device::Open("/dev/video2");
+  ASSERT_THAT(device.status(), IsOk());
+  EXPECT_THAT(device->QueryCapabilities().status(),
+              StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("/dev/video2")));
+}
+
+TEST_F(V4l2DeviceTest, MissingNodesAreNotFoundAndAnEmptyListSaysSo) {
+  EXPECT_THAT(V4l2Device::Open("/dev/video7").status(),
+              StatusIs(absl::StatusCode::kNotFound, HasSubstr("/dev/video7")));
+  const std::vector<CaptureDevice> devices = ListCaptureDevices();
+  EXPECT_THAT(devices, IsEmpty());
+  EXPECT_EQ(DescribeCaptureDevices(devices),
+            "no capture devices found (looked for V4L2 nodes /dev/videoN)\n");
+}
+
+}  // namespace
+}  // namespace transient::v4l2
