@@ -3,15 +3,20 @@
 
 #include <fcntl.h>
 #include <linux/videodev2.h>
+#include <poll.h>
 #include <sys/ioctl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/time/clock.h"
+#include "v4l2/frame_unpacker.h"
 
 namespace transient::v4l2 {
 namespace {
@@ -117,18 +122,30 @@ absl::StatusOr<V4l2Device> V4l2Device::Open(const std::string& path) {
 }
 
 V4l2Device::V4l2Device(V4l2Device&& other) noexcept
-    : fd_(std::exchange(other.fd_, -1)), path_(std::move(other.path_)) {}
+    : fd_(std::exchange(other.fd_, -1)),
+      path_(std::move(other.path_)),
+      format_(other.format_),
+      mappings_(std::move(other.mappings_)),
+      streaming_(std::exchange(other.streaming_, false)) {
+  other.mappings_.clear();
+}
 
 V4l2Device& V4l2Device::operator=(V4l2Device&& other) noexcept {
   if (this != &other) {
+    (void)StopStreaming();
     if (fd_ >= 0) ::close(fd_);
     fd_ = std::exchange(other.fd_, -1);
     path_ = std::move(other.path_);
+    format_ = other.format_;
+    mappings_ = std::move(other.mappings_);
+    other.mappings_.clear();
+    streaming_ = std::exchange(other.streaming_, false);
   }
   return *this;
 }
 
 V4l2Device::~V4l2Device() {
+  (void)StopStreaming();
   if (fd_ >= 0) ::close(fd_);
 }
 
@@ -206,6 +223,182 @@ absl::StatusOr<std::vector<ControlDescription>> V4l2Device::EnumerateControls() 
   }
   return absl::InternalError(absl::StrCat(path_, ": VIDIOC_QUERY_EXT_CTRL lists more than ",
                                           kMaxEnumerated, " controls"));
+}
+
+absl::StatusOr<NegotiatedFormat> V4l2Device::SetFormat(uint32_t fourcc, ImageGeometry geometry) {
+  v4l2_format format{};
+  format.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  format.fmt.pix.pixelformat = fourcc;
+  format.fmt.pix.width = static_cast<uint32_t>(geometry.width);
+  format.fmt.pix.height = static_cast<uint32_t>(geometry.height);
+  format.fmt.pix.field = V4L2_FIELD_NONE;
+  if (Ioctl(VIDIOC_S_FMT, &format) != 0) return IoctlError("VIDIOC_S_FMT", errno);
+  const v4l2_pix_format& granted = format.fmt.pix;
+  if (granted.pixelformat != fourcc || static_cast<int>(granted.width) != geometry.width ||
+      static_cast<int>(granted.height) != geometry.height) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "%s: asked for %s %dx%d, the driver granted %s %ux%u", path_, FourccName(fourcc),
+        geometry.width, geometry.height, FourccName(granted.pixelformat), granted.width,
+        granted.height));
+  }
+  NegotiatedFormat result;
+  result.fourcc = granted.pixelformat;
+  result.geometry = geometry;
+  result.bytes_per_line = granted.bytesperline;
+  result.image_bytes = granted.sizeimage;
+  absl::StatusOr<size_t> row = RowBytes(fourcc, geometry.width);
+  if (!row.ok()) return row.status();
+  // Drivers of packed formats may leave bytesperline 0; the packed row is the stride then.
+  if (result.bytes_per_line == 0) result.bytes_per_line = *row;
+  const size_t needed = result.bytes_per_line * static_cast<size_t>(geometry.height - 1) + *row;
+  if (result.bytes_per_line < *row || result.image_bytes < needed) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "%s: the driver's layout for %s %dx%d (%zu bytes per line, %zu per image) is too small "
+        "for its samples (%zu per row, %zu per image)",
+        path_, FourccName(fourcc), geometry.width, geometry.height, result.bytes_per_line,
+        result.image_bytes, *row, needed));
+  }
+  format_ = result;
+  return result;
+}
+
+void V4l2Device::Unmap() {
+  for (const Mapping& mapping : mappings_) ::munmap(mapping.address, mapping.length);
+  mappings_.clear();
+}
+
+absl::Status V4l2Device::StartStreaming(int buffers, int minimum_buffers) {
+  if (format_.image_bytes == 0) {
+    return absl::FailedPreconditionError(absl::StrCat(path_, ": no format set before streaming"));
+  }
+  if (streaming_) return absl::OkStatus();
+  v4l2_requestbuffers request{};
+  request.count = static_cast<uint32_t>(buffers);
+  request.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  request.memory = V4L2_MEMORY_MMAP;
+  if (Ioctl(VIDIOC_REQBUFS, &request) != 0) return IoctlError("VIDIOC_REQBUFS", errno);
+  if (static_cast<int>(request.count) < minimum_buffers) {
+    v4l2_requestbuffers release{};
+    release.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    release.memory = V4L2_MEMORY_MMAP;
+    (void)Ioctl(VIDIOC_REQBUFS, &release);
+    return absl::FailedPreconditionError(
+        absl::StrCat(path_, ": the driver granted ", request.count, " buffers, ",
+                     minimum_buffers, " are needed to queue a whole sequence"));
+  }
+  for (uint32_t index = 0; index < request.count; ++index) {
+    v4l2_buffer buffer{};
+    buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    buffer.memory = V4L2_MEMORY_MMAP;
+    buffer.index = index;
+    absl::Status failure;
+    if (Ioctl(VIDIOC_QUERYBUF, &buffer) != 0) {
+      failure = IoctlError("VIDIOC_QUERYBUF", errno);
+    } else if (buffer.length < format_.image_bytes) {
+      failure = absl::FailedPreconditionError(absl::StrCat(
+          path_, ": buffer ", index, " holds ", buffer.length, " bytes, an image ",
+          format_.image_bytes));
+    } else {
+      void* address = ::mmap(nullptr, buffer.length, PROT_READ | PROT_WRITE, MAP_SHARED, fd_,
+                             buffer.m.offset);
+      if (address == MAP_FAILED) {
+        failure = absl::InternalError(
+            absl::StrCat(path_, ": mmap of buffer ", index, ": ", std::strerror(errno)));
+      } else {
+        mappings_.push_back({address, buffer.length});
+        if (Ioctl(VIDIOC_QBUF, &buffer) != 0) failure = IoctlError("VIDIOC_QBUF", errno);
+      }
+    }
+    if (!failure.ok()) {
+      streaming_ = true;  // so that StopStreaming releases what was set up
+      (void)StopStreaming();
+      return failure;
+    }
+  }
+  int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  if (Ioctl(VIDIOC_STREAMON, &type) != 0) {
+    const absl::Status failure = IoctlError("VIDIOC_STREAMON", errno);
+    streaming_ = true;
+    (void)StopStreaming();
+    return failure;
+  }
+  streaming_ = true;
+  return absl::OkStatus();
+}
+
+absl::StatusOr<DequeuedFrame> V4l2Device::Dequeue(absl::Duration timeout) {
+  if (!streaming_) return absl::FailedPreconditionError(absl::StrCat(path_, ": not streaming"));
+  const absl::Time deadline = absl::Now() + timeout;
+  while (true) {
+    v4l2_buffer buffer{};
+    buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    buffer.memory = V4L2_MEMORY_MMAP;
+    if (Ioctl(VIDIOC_DQBUF, &buffer) == 0) {
+      if (buffer.index >= mappings_.size()) {
+        return absl::InternalError(absl::StrCat(path_, ": VIDIOC_DQBUF returned buffer ",
+                                                buffer.index, " of ", mappings_.size()));
+      }
+      const Mapping& mapping = mappings_[buffer.index];
+      DequeuedFrame frame;
+      frame.index = static_cast<int>(buffer.index);
+      frame.buffer.sequence = buffer.sequence;
+      frame.buffer.timestamp_ns =
+          int64_t{buffer.timestamp.tv_sec} * 1'000'000'000 + int64_t{buffer.timestamp.tv_usec} * 1000;
+      frame.buffer.error_flag = (buffer.flags & V4L2_BUF_FLAG_ERROR) != 0;
+      frame.buffer.bytes_used = buffer.bytesused;
+      frame.data = std::span<const uint8_t>(static_cast<const uint8_t*>(mapping.address),
+                                            std::min<size_t>(buffer.bytesused, mapping.length));
+      return frame;
+    }
+    const int error = errno;
+    if (error != EAGAIN) {
+      if (error == ENODEV) {
+        return absl::UnavailableError(absl::StrCat(path_, ": VIDIOC_DQBUF: device gone"));
+      }
+      return IoctlError("VIDIOC_DQBUF", error);
+    }
+    const absl::Duration left = deadline - absl::Now();
+    if (left <= absl::ZeroDuration()) {
+      return absl::DeadlineExceededError(
+          absl::StrCat(path_, ": no buffer within ", absl::FormatDuration(timeout)));
+    }
+    pollfd poll_fd{.fd = fd_, .events = POLLIN, .revents = 0};
+    const int ready = ::poll(&poll_fd, 1, static_cast<int>(absl::ToInt64Milliseconds(left)) + 1);
+    if (ready > 0) {
+      // A node whose poll is always ready (an emulated one) must not spin: a short pause.
+      absl::SleepFor(std::min(left, absl::Milliseconds(1)));
+    }
+  }
+}
+
+absl::Status V4l2Device::Requeue(int index) {
+  if (!streaming_ || index < 0 || static_cast<size_t>(index) >= mappings_.size()) {
+    return absl::FailedPreconditionError(absl::StrCat(path_, ": cannot requeue buffer ", index));
+  }
+  v4l2_buffer buffer{};
+  buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  buffer.memory = V4L2_MEMORY_MMAP;
+  buffer.index = static_cast<uint32_t>(index);
+  if (Ioctl(VIDIOC_QBUF, &buffer) != 0) return IoctlError("VIDIOC_QBUF", errno);
+  return absl::OkStatus();
+}
+
+absl::Status V4l2Device::StopStreaming() {
+  if (!streaming_) return absl::OkStatus();
+  streaming_ = false;
+  absl::Status result;
+  int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  if (Ioctl(VIDIOC_STREAMOFF, &type) != 0 && errno != ENODEV) {
+    result = IoctlError("VIDIOC_STREAMOFF", errno);
+  }
+  Unmap();
+  v4l2_requestbuffers release{};
+  release.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  release.memory = V4L2_MEMORY_MMAP;
+  if (Ioctl(VIDIOC_REQBUFS, &release) != 0 && errno != ENODEV && result.ok()) {
+    result = IoctlError("VIDIOC_REQBUFS 0", errno);
+  }
+  return result;
 }
 
 }  // namespace transient::v4l2

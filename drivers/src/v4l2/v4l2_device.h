@@ -4,13 +4,18 @@
 // (../shared/research/v4l2.md §2.1, §2.2, §2.5, §5.1).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/time/time.h"
+#include "transient/reconstruct/image.h"
+#include "v4l2/sequence_assembler.h"
 
 namespace transient::v4l2 {
 
@@ -54,6 +59,21 @@ bool IsTofControl(const ControlDescription& control);
 // "u16[8] 0..315 step 45", "menu 0..2", "button", ...
 std::string DescribeControlRange(const ControlDescription& control);
 
+// The format the driver agreed to (VIDIOC_S_FMT's read-back).
+struct NegotiatedFormat {
+  uint32_t fourcc = 0;
+  ImageGeometry geometry;
+  size_t bytes_per_line = 0;
+  size_t image_bytes = 0;  // sizeimage: what bytesused of a whole buffer is
+};
+
+// A dequeued buffer: what the driver said of it, and its bytes (valid until it is requeued).
+struct DequeuedFrame {
+  int index = -1;
+  DequeuedBuffer buffer;
+  std::span<const uint8_t> data;  // the mapping, bytesused long (at most the buffer's length)
+};
+
 class V4l2Device {
  public:
   // Opens `path` read-write, non-blocking. NotFound, PermissionDenied, Unavailable (busy or
@@ -75,14 +95,41 @@ class V4l2Device {
   // VIDIOC_QUERY_EXT_CTRL with NEXT_CTRL | NEXT_COMPOUND until EINVAL; disabled ones skipped.
   absl::StatusOr<std::vector<ControlDescription>> EnumerateControls();
 
+  // VIDIOC_S_FMT for single-planar capture. A driver that grants another pixel format or size
+  // is refused: InvalidArgument naming what was asked and what was granted.
+  absl::StatusOr<NegotiatedFormat> SetFormat(uint32_t fourcc, ImageGeometry geometry);
+
+  // REQBUFS (memory-mapped) with `buffers`, QUERYBUF and mmap of each, QBUF of all, STREAMON.
+  // FailedPrecondition when the driver grants fewer than `minimum_buffers` or a buffer shorter
+  // than the format's image; errors name the ioctl and the errno. Needs SetFormat first.
+  absl::Status StartStreaming(int buffers, int minimum_buffers);
+  // VIDIOC_DQBUF, waiting up to `timeout` (poll, then retrying on EAGAIN: an emulated node's
+  // poll is always ready). DeadlineExceeded when nothing came, Unavailable when the device is
+  // gone (ENODEV), Internal for EIO and other errors, each naming the errno.
+  absl::StatusOr<DequeuedFrame> Dequeue(absl::Duration timeout);
+  // VIDIOC_QBUF of a dequeued buffer.
+  absl::Status Requeue(int index);
+  // STREAMOFF, munmap, REQBUFS 0; also done by the destructor. Idempotent.
+  absl::Status StopStreaming();
+  bool streaming() const { return streaming_; }
+
  private:
+  struct Mapping {
+    void* address = nullptr;
+    size_t length = 0;
+  };
+
   V4l2Device(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}
+  void Unmap();
   // ioctl(2), retried on EINTR; -1 with errno set on failure.
   int Ioctl(unsigned long request, void* argument) const;
   absl::Status IoctlError(const char* what, int error) const;
 
   int fd_ = -1;
   std::string path_;
+  NegotiatedFormat format_;
+  std::vector<Mapping> mappings_;
+  bool streaming_ = false;
 };
 
 }  // namespace transient::v4l2

@@ -149,5 +149,121 @@ TEST_F(V4l2DeviceTest, MissingNodesAreNotFoundAndAnEmptyListSaysSo) {
             "no capture devices found (looked for V4L2 nodes /dev/videoN)\n");
 }
 
+EmulatedNode SmallSensor() {
+  EmulatedNode node = Mlx75027();
+  node.sensor = {8, 4};
+  return node;
+}
+
+// Four rows of eight 12-bit samples, value 100 * row + column, packed as MIPI RAW12 with
+// `padding` bytes after each row (the kernel's Y12P layout, research §2.2).
+std::vector<uint8_t> PackedFrame(size_t padding, int offset = 0) {
+  std::vector<uint8_t> bytes;
+  for (int y = 0; y < 4; ++y) {
+    for (int x = 0; x < 8; x += 2) {
+      const int p0 = 100 * y + x + offset, p1 = 100 * y + x + 1 + offset;
+      bytes.push_back(static_cast<uint8_t>(p0 >> 4));
+      bytes.push_back(static_cast<uint8_t>(p1 >> 4));
+      bytes.push_back(static_cast<uint8_t>((p1 & 0xf) << 4 | (p0 & 0xf)));
+    }
+    bytes.insert(bytes.end(), padding, 0xee);
+  }
+  return bytes;
+}
+
+TEST_F(V4l2DeviceTest, AFormatTheDriverAdjustsIsRefusedNamingBoth) {
+  sensor_.AddNode(SmallSensor());
+  absl::StatusOr<V4l2Device> device = V4l2Device::Open("/dev/video0");
+  ASSERT_THAT(device.status(), IsOk());
+  EXPECT_THAT(device->SetFormat(kFourccY12P, {16, 4}).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("asked for Y12P 16x4, the driver granted Y12P 8x4")));
+  EXPECT_THAT(device->SetFormat(kFourccY16, {8, 4}).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("asked for Y16 8x4, the driver granted Y12P 8x4")));
+  absl::StatusOr<NegotiatedFormat> format = device->SetFormat(kFourccY12, {8, 4});
+  ASSERT_THAT(format.status(), IsOk());
+  EXPECT_EQ(format->bytes_per_line, 16u);
+  EXPECT_EQ(format->image_bytes, 64u);
+}
+
+TEST_F(V4l2DeviceTest, StreamedBuffersAreReadThroughTheMappingWithTheDriversMetadata) {
+  EmulatedNode node = SmallSensor();
+  node.row_padding = 4;  // bytesperline 16 for 12 bytes of samples
+  sensor_.AddNode(node);
+  absl::StatusOr<V4l2Device> device = V4l2Device::Open("/dev/video0");
+  ASSERT_THAT(device.status(), IsOk());
+  absl::StatusOr<NegotiatedFormat> format = device->SetFormat(kFourccY12P, {8, 4});
+  ASSERT_THAT(format.status(), IsOk());
+  EXPECT_EQ(format->bytes_per_line, 16u);
+  ASSERT_THAT(device->StartStreaming(6, 5), IsOk());
+  sensor_.PushFrame("video0", {.bytes = PackedFrame(4), .timestamp_ns = 1'500'000'000});
+  sensor_.PushFrame("video0", {.bytes = PackedFrame(4, 1), .frames_lost_before = 2,
+                               .timestamp_ns = 1'533'000'000});
+  sensor_.PushFrame("video0", {.bytes = PackedFrame(4), .error_flag = true});
+  sensor_.PushFrame("video0", {.bytes = std::vector<uint8_t>(10, 0)});  // a short transfer
+
+  absl::StatusOr<DequeuedFrame> first = device->Dequeue(absl::Seconds(5));
+  ASSERT_THAT(first.status(), IsOk());
+  EXPECT_EQ(first->buffer.sequence, 0u);
+  EXPECT_EQ(first->buffer.timestamp_ns, 1'500'000'000);
+  EXPECT_FALSE(first->buffer.error_flag);
+  EXPECT_EQ(first->buffer.bytes_used, 64u);
+  std::vector<float> pixels(32);
+  const FrameLayout layout{.geometry = {8, 4}, .bytes_per_line = format->bytes_per_line};
+  ASSERT_THAT(Unpack(first->data, layout, {.fourcc = kFourccY12P}, pixels), IsOk());
+  EXPECT_EQ(pixels[0], 0);
+  EXPECT_EQ(pixels[9], 101);
+  EXPECT_EQ(pixels[31], 307);
+  ASSERT_THAT(device->Requeue(first->index), IsOk());
+
+  absl::StatusOr<DequeuedFrame> second = device->Dequeue(absl::Seconds(5));
+  ASSERT_THAT(second.status(), IsOk());
+  EXPECT_EQ(second->buffer.sequence, 3u);  // two frames lost before it, counted by the driver
+  ASSERT_THAT(Unpack(second->data, layout, {.fourcc = kFourccY12P}, pixels), IsOk());
+  EXPECT_EQ(pixels[31], 308);
+  absl::StatusOr<DequeuedFrame> third = device->Dequeue(absl::Seconds(5));
+  ASSERT_THAT(third.status(), IsOk());
+  EXPECT_TRUE(third->buffer.error_flag);
+  absl::StatusOr<DequeuedFrame> fourth = device->Dequeue(absl::Seconds(5));
+  ASSERT_THAT(fourth.status(), IsOk());
+  EXPECT_EQ(fourth->buffer.bytes_used, 10u);
+  EXPECT_THAT(Unpack(fourth->data, layout, {.fourcc = kFourccY12P}, pixels),
+              StatusIs(absl::StatusCode::kDataLoss, HasSubstr("short buffer: 10 bytes")));
+  EXPECT_THAT(device->StopStreaming(), IsOk());
+}
+
+TEST_F(V4l2DeviceTest, NothingToDequeueIsDeadlineExceededAndUnplugIsUnavailable) {
+  sensor_.AddNode(SmallSensor());
+  absl::StatusOr<V4l2Device> device = V4l2Device::Open("/dev/video0");
+  ASSERT_THAT(device.status(), IsOk());
+  ASSERT_THAT(device->SetFormat(kFourccY12P, {8, 4}).status(), IsOk());
+  ASSERT_THAT(device->StartStreaming(4, 4), IsOk());
+  EXPECT_THAT(device->Dequeue(absl::Milliseconds(30)).status(),
+              StatusIs(absl::StatusCode::kDeadlineExceeded, HasSubstr("no buffer within 30ms")));
+  sensor_.PushFrame("video0", {.bytes = PackedFrame(0)});
+  sensor_.Unplug("video0");
+  EXPECT_THAT(device->Dequeue(absl::Seconds(5)).status(),
+              StatusIs(absl::StatusCode::kUnavailable, HasSubstr("device gone")));
+  EXPECT_THAT(device->StopStreaming(), IsOk());  // STREAMOFF on a gone device is not an error
+}
+
+TEST_F(V4l2DeviceTest, TooFewBuffersOrNoFormatAreRefused) {
+  EmulatedNode node = SmallSensor();
+  node.max_buffers = 3;
+  sensor_.AddNode(node);
+  absl::StatusOr<V4l2Device> device = V4l2Device::Open("/dev/video0");
+  ASSERT_THAT(device.status(), IsOk());
+  EXPECT_THAT(device->StartStreaming(6, 5),
+              StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("no format set")));
+  ASSERT_THAT(device->SetFormat(kFourccY12P, {8, 4}).status(), IsOk());
+  EXPECT_THAT(device->StartStreaming(6, 5),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("granted 3 buffers, 5 are needed")));
+  EXPECT_FALSE(device->streaming());
+  EXPECT_THAT(device->Dequeue(absl::Milliseconds(1)).status(),
+              StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("not streaming")));
+}
+
 }  // namespace
 }  // namespace transient::v4l2
