@@ -167,8 +167,7 @@ absl::StatusOr<int> AcquisitionSchedule::IndexOf(const ExposureConfig& config) c
     }
   }
   return absl::InvalidArgumentError(absl::StrCat(
-      "frame ", config.sequence, " (", DescribeExposure(config),
-      ") is not an exposure of the schedule ", Describe()));
+      DescribeFrame(config), " is not an exposure of the schedule ", Describe()));
 }
 
 std::string AcquisitionSchedule::Describe() const {
@@ -191,6 +190,11 @@ std::string DescribeExposure(const ExposureConfig& config) {
       "harmonic %d (%s), phase shift %.4f rad, exposure %g ms, illumination %s, take %d",
       config.harmonic, FrequencyText(config.frequency_hz), config.phase_shift_rad,
       config.exposure_s * 1e3, config.illumination ? "on" : "off", config.take);
+}
+
+std::string DescribeFrame(const ExposureConfig& config) {
+  return absl::StrCat("frame ", config.sequence, " (cycle ", config.cycle, ", ",
+                      DescribeExposure(config), ")");
 }
 
 }  // namespace transient

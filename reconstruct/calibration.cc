@@ -12,13 +12,12 @@
 namespace transient {
 namespace {
 
-constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 // Frequencies written by a capture and read back from a file agree to far better than this; a
 // different configuration differs by far more (acquisition.cc uses the same rule).
-constexpr double kRelativeMatch = 1e-6;
+constexpr double kGainMatch = 1e-6;
 
 bool NearFrequency(double a, double b) {
-  return std::abs(a - b) <= kRelativeMatch * std::max(std::abs(a), std::abs(b));
+  return std::abs(a - b) <= kGainMatch * std::max(std::abs(a), std::abs(b));
 }
 
 std::string Hz(double hz) { return absl::StrFormat("%g MHz", hz / 1e6); }

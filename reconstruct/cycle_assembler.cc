@@ -12,10 +12,6 @@ namespace {
 // Beyond a few, a list of missing exposures stops helping; the count says the rest.
 constexpr int kMaxListedExposures = 4;
 
-std::string FrameName(const RawFrame& frame) {
-  return absl::StrCat("frame ", frame.config.sequence, " (cycle ", frame.config.cycle, ", ",
-                      DescribeExposure(frame.config), ")");
-}
 
 }  // namespace
 
@@ -54,17 +50,17 @@ absl::StatusOr<bool> CycleAssembler::Add(RawFrame frame) {
   };
   if (ready_) {
     return refuse(absl::FailedPreconditionError(
-        absl::StrCat(FrameName(frame), " dropped: cycle ", *current_cycle_,
+        absl::StrCat(DescribeFrame(frame.config), " dropped: cycle ", *current_cycle_,
                      " is complete and waiting; call TakeCycle() before adding frames")));
   }
   if (frame.geometry != geometry_) {
     return refuse(absl::InvalidArgumentError(absl::StrCat(
-        FrameName(frame), " has geometry ", frame.geometry.width, "x", frame.geometry.height,
+        DescribeFrame(frame.config), " has geometry ", frame.geometry.width, "x", frame.geometry.height,
         "; expected ", geometry_.width, "x", geometry_.height)));
   }
   if (static_cast<int64_t>(frame.pixels.size()) != geometry_.pixel_count()) {
     return refuse(absl::InvalidArgumentError(absl::StrCat(
-        FrameName(frame), " holds ", frame.pixels.size(),
+        DescribeFrame(frame.config), " holds ", frame.pixels.size(),
         " pixels. Violated constraint: pixels == width*height = ", geometry_.pixel_count())));
   }
   absl::StatusOr<int> index = schedule_.IndexOf(frame.config);
@@ -75,14 +71,14 @@ absl::StatusOr<bool> CycleAssembler::Add(RawFrame frame) {
                                      : (have_completed_ ? last_completed_cycle_ + 1 : cycle);
   if (cycle < oldest_allowed) {
     return refuse(absl::InvalidArgumentError(absl::StrCat(
-        FrameName(frame), " is late: cycle ", cycle, " is older than cycle ", oldest_allowed,
+        DescribeFrame(frame.config), " is late: cycle ", cycle, " is older than cycle ", oldest_allowed,
         current_cycle_.has_value() ? " being assembled" : " expected next")));
   }
 
   absl::Status lost = absl::OkStatus();
   if (current_cycle_.has_value() && cycle > *current_cycle_) {
     std::string message =
-        absl::StrCat(FrameName(frame), " starts a new cycle while cycle ", *current_cycle_,
+        absl::StrCat(DescribeFrame(frame.config), " starts a new cycle while cycle ", *current_cycle_,
                      " lacks ", slots_.size() - static_cast<size_t>(received_), " of ",
                      slots_.size(), " exposures; dropped it. Missing: ");
     int listed = 0;
@@ -103,7 +99,7 @@ absl::StatusOr<bool> CycleAssembler::Add(RawFrame frame) {
 
   std::optional<RawFrame>& slot = slots_[static_cast<size_t>(*index)];
   if (slot.has_value()) {
-    return refuse(absl::InvalidArgumentError(absl::StrCat(FrameName(frame), " duplicates frame ",
+    return refuse(absl::InvalidArgumentError(absl::StrCat(DescribeFrame(frame.config), " duplicates frame ",
                                                           slot->config.sequence,
                                                           " of the same exposure; dropped it")));
   }

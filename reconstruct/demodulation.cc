@@ -13,14 +13,12 @@
 namespace transient {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 // Robust scores are medians; a thousand well-spread pixels estimate them to about 4 percent,
 // which is all a threshold of several times the typical score needs, and keep the per-pixel
 // median over takes off the full image.
 constexpr int64_t kMaxScoreSamples = 1024;
 // Describing a dozen missing exposures in one message helps nobody; the count says the rest.
-constexpr int kMaxListedExposures = 4;
+constexpr int kMaxListedMissing = 4;
 
 // Median of `v` (mean of the two middle values for an even count: the 50th type-7 percentile);
 // reorders `v`. `v` non-empty and without NaN.
@@ -29,9 +27,6 @@ double MedianInPlace(std::span<double> v) { return Percentile(v, 50.0); }
 // A pixel the demodulator must not use: unreadable (NaN) or at or above saturation.
 inline bool Unusable(float value, float saturation_level) { return !(value < saturation_level); }
 
-std::string FrameName(const RawFrame& frame) {
-  return absl::StrCat("frame ", frame.config.sequence, " (", DescribeExposure(frame.config), ")");
-}
 
 // Well-spread distinct pixels: i * a mod P with a coprime to P near the golden ratio of P, sorted
 // for memory order. All pixels when there are few.
@@ -128,26 +123,26 @@ absl::Status Demodulator::IndexFrames(std::span<const RawFrame> cycle) {
   for (const RawFrame& frame : cycle) {
     if (frame.geometry != geometry_) {
       return absl::InvalidArgumentError(absl::StrCat(
-          FrameName(frame), " has geometry ", frame.geometry.width, "x", frame.geometry.height,
+          DescribeFrame(frame.config), " has geometry ", frame.geometry.width, "x", frame.geometry.height,
           "; the demodulator expects ", geometry_.width, "x", geometry_.height));
     }
     if (static_cast<int64_t>(frame.pixels.size()) != pixels) {
       return absl::InvalidArgumentError(
-          absl::StrCat(FrameName(frame), " holds ", frame.pixels.size(),
+          absl::StrCat(DescribeFrame(frame.config), " holds ", frame.pixels.size(),
                        " pixels. Violated constraint: pixels == width*height = ", pixels));
     }
     absl::StatusOr<int> index = schedule_.IndexOf(frame.config);
     if (!index.ok()) return index.status();
     if (frame.config.cycle != cycle.front().config.cycle) {
       return absl::InvalidArgumentError(
-          absl::StrCat(FrameName(frame), " belongs to cycle ", frame.config.cycle, "; frame ",
+          absl::StrCat(DescribeFrame(frame.config), " belongs to cycle ", frame.config.cycle, "; frame ",
                        cycle.front().config.sequence, " to cycle ", cycle.front().config.cycle,
                        ". Violated constraint: one cycle per call"));
     }
     const RawFrame*& slot = slots_[static_cast<size_t>(*index)];
     if (slot != nullptr) {
       return absl::InvalidArgumentError(
-          absl::StrCat(FrameName(frame), " duplicates the exposure of frame ",
+          absl::StrCat(DescribeFrame(frame.config), " duplicates the exposure of frame ",
                        slot->config.sequence, " in cycle ", frame.config.cycle));
     }
     slot = &frame;
@@ -162,12 +157,12 @@ absl::Status Demodulator::IndexFrames(std::span<const RawFrame> cycle) {
         cycle.empty() ? std::string("(no frames)") : absl::StrCat(cycle.front().config.cycle),
         " lacks ", missing.size(), " of ", n, " exposures of the schedule ", schedule_.Describe(),
         ": missing ");
-    for (size_t k = 0; k < missing.size() && k < kMaxListedExposures; ++k) {
+    for (size_t k = 0; k < missing.size() && k < kMaxListedMissing; ++k) {
       absl::StrAppend(&message, k == 0 ? "" : "; ",
                       DescribeExposure(schedule_.exposures()[missing[k]]));
     }
-    if (missing.size() > kMaxListedExposures) {
-      absl::StrAppend(&message, "; and ", missing.size() - kMaxListedExposures, " more");
+    if (missing.size() > kMaxListedMissing) {
+      absl::StrAppend(&message, "; and ", missing.size() - kMaxListedMissing, " more");
     }
     return absl::InvalidArgumentError(message);
   }

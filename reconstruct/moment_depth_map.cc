@@ -33,10 +33,6 @@ constexpr float kMinCoverage = 1e-20f;
 // z̄ = 1: a surface at the far plane, which occludes nothing nearer than `far`.
 constexpr float kFarPlane = 1.0f;
 
-int Threads() {
-  const int requested = GetKernelOptions().threads;
-  return requested > 0 ? requested : omp_get_max_threads();
-}
 
 // ---- the fast path's loops ---------------------------------------------------------------------
 // Compiled for AVX2 and for plain x86-64, chosen at load time (as in optimized_kernels.cc), and
@@ -50,14 +46,14 @@ struct Counts {
   int64_t first = 0, second = 0;
 };
 
-// Runs body(begin, end) -> Counts over [0, count) in blocks on Threads() threads; returns the
+// Runs body(begin, end) -> Counts over [0, count) in blocks on KernelThreads() threads; returns the
 // sums of the counts.
 template <typename Body>
 Counts ParallelBlocks(int64_t count, const Body& body) {
   const int64_t blocks = (count + kBlockPixels - 1) / kBlockPixels;
   int64_t first = 0, second = 0;
   // One block: no threads to start and wait for (small images, the tests).
-#pragma omp parallel for num_threads(Threads()) schedule(static) reduction(+ : first, second) \
+#pragma omp parallel for num_threads(KernelThreads()) schedule(static) reduction(+ : first, second) \
     if (blocks > 1)
   for (int64_t b = 0; b < blocks; ++b) {
     const Counts c = body(b * kBlockPixels, std::min(count, (b + 1) * kBlockPixels));
@@ -363,7 +359,7 @@ absl::Status MomentDepthMapBuilder::BuildFromReturns(int returns, std::span<cons
   float* planes = planes_.data();
   // Per pixel sums in double (a handful of returns; weights of any finite size must not
   // overflow the sum), stored as float.
-#pragma omp parallel for num_threads(Threads()) schedule(static) reduction(+ : invalid, clamped) \
+#pragma omp parallel for num_threads(KernelThreads()) schedule(static) reduction(+ : invalid, clamped) \
     if (pixels > kBlockPixels)
   for (int64_t p = 0; p < pixels; ++p) {
     double sum[kChannels] = {};

@@ -17,10 +17,6 @@
 namespace transient {
 namespace {
 
-int Threads() {
-  const int requested = GetKernelOptions().threads;
-  return requested > 0 ? requested : omp_get_max_threads();
-}
 
 // True when any of values[0, count) is NaN or infinite: an all-ones exponent, tested on the bits
 // so that the loop vectorizes (std::isfinite does not under GCC without -ffinite-math).
@@ -40,7 +36,7 @@ absl::Status CheckFinite(ImageGeometry geometry, int channels, std::span<const f
   const int64_t rows = int64_t{channels} * geometry.height;
   const int width = geometry.width;
   int bad_rows = 0;
-#pragma omp parallel for num_threads(Threads()) schedule(static) reduction(+ : bad_rows)
+#pragma omp parallel for num_threads(KernelThreads()) schedule(static) reduction(+ : bad_rows)
   for (int64_t row = 0; row < rows; ++row) {
     bad_rows += AnyNonFinite(planes.data() + row * width, width) ? 1 : 0;
   }
@@ -256,7 +252,7 @@ absl::Status GaussianMomentFilter::Apply(std::span<const float> in, std::span<fl
   // row-filtered source rows its column pass needs in a ring of 2r + 1 rows (L1/L2-resident),
   // so the intermediate image never travels to memory; a band re-filters the r rows beyond
   // each of its ends (4r rows per band of height / bands, a few percent).
-  const int threads = Threads();
+  const int threads = KernelThreads();
   const int bands_per_channel =
       std::clamp((4 * threads + channels_ - 1) / channels_, 1, std::max(1, height / window));
   const int band_height = (height + bands_per_channel - 1) / bands_per_channel;
@@ -353,7 +349,7 @@ absl::StatusOr<SummedAreaTable> SummedAreaTable::Build(ImageGeometry geometry, i
   sat.table_ = std::vector<double>(static_cast<size_t>(channels * sat.plane_size_));
   const int64_t pixels = geometry.pixel_count();
   // Rows depend on the row above, channels do not: one thread per channel.
-#pragma omp parallel for num_threads(std::min(Threads(), channels)) schedule(static, 1)
+#pragma omp parallel for num_threads(std::min(KernelThreads(), channels)) schedule(static, 1)
   for (int k = 0; k < channels; ++k) {
     const float* in = planes.data() + k * pixels;
     double* table = sat.table_.data() + k * sat.plane_size_;

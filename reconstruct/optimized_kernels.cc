@@ -26,21 +26,16 @@
 namespace transient::optimized {
 namespace {
 
-constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 // Pixels per work item: the series coefficients of a block (2m+2 doubles per pixel) stay in
 // L1/L2 while every phase sweeps over them.
 constexpr int64_t kBlockPixels = 256;
 
-int Threads() {
-  const int requested = GetKernelOptions().threads;
-  return requested > 0 ? requested : omp_get_max_threads();
-}
 
-// Runs body(begin, end) over [0, count) in blocks of kBlockPixels on Threads() threads.
+// Runs body(begin, end) over [0, count) in blocks of kBlockPixels on KernelThreads() threads.
 template <typename Body>
 void ParallelBlocks(int64_t count, const Body& body) {
   const int64_t blocks = (count + kBlockPixels - 1) / kBlockPixels;
-#pragma omp parallel for num_threads(Threads()) schedule(dynamic, 4)
+#pragma omp parallel for num_threads(KernelThreads()) schedule(dynamic, 4)
   for (int64_t b = 0; b < blocks; ++b) {
     body(b * kBlockPixels, std::min(count, (b + 1) * kBlockPixels));
   }

@@ -10,7 +10,7 @@ namespace transient {
 namespace {
 
 constexpr double kNegligibleLeading = 1e-14;  // relative size below which a coefficient is 0
-constexpr int kNewtonSteps = 3;
+constexpr int kPolishSteps = 3;
 
 using CompanionMatrix = Eigen::Matrix<Complex, Eigen::Dynamic, Eigen::Dynamic, 0,
                                       kMaxPolynomialDegree, kMaxPolynomialDegree>;
@@ -57,7 +57,7 @@ int PolynomialRoots(std::span<const Complex> coefficients, std::span<Complex> ro
     Complex x = solver.eigenvalues()[i];
     Complex value, derivative;
     EvaluateWithDerivative(a, x, &value, &derivative);
-    for (int step = 0; step < kNewtonSteps; ++step) {
+    for (int step = 0; step < kPolishSteps; ++step) {
       if (derivative == Complex(0.0)) break;
       const Complex candidate = x - value / derivative;
       Complex candidate_value, candidate_derivative;

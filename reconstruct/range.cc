@@ -15,7 +15,7 @@
 namespace transient {
 namespace {
 
-constexpr int kNewtonSteps = 8;
+constexpr int kRangeNewtonSteps = 8;
 // Newton stops below this step: 1e-10 rad is 1e-8 m of range at 23 MHz, and the step after a
 // step this small is below rounding anyway (quadratic convergence).
 constexpr double kPhaseTolerance = 1e-10;
@@ -28,7 +28,7 @@ constexpr double kPhaseTolerance = 1e-10;
 double RefineMinimum(std::span<const Complex> a, std::span<const Complex> p, double center,
                      double h, double left, double middle, double right) {
   double phase = center;
-  for (int step = 0; step < kNewtonSteps; ++step) {
+  for (int step = 0; step < kRangeNewtonSteps; ++step) {
     const SeriesValue s = EvaluateDenominatorSeries(a, phase);
     if (!(s.second > 0.0)) break;
     const double delta = -s.first / s.second;

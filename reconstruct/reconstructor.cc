@@ -2,6 +2,8 @@
 // the reference and the optimized kernels (kernels.h).
 #include "transient/reconstruct/reconstructor.h"
 
+#include <omp.h>
+
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -68,6 +70,11 @@ bool UseOptimized() { return CurrentKernelOptions().kind == KernelKind::kOptimiz
 
 void SetKernelOptions(const KernelOptions& options) { CurrentKernelOptions() = options; }
 KernelOptions GetKernelOptions() { return CurrentKernelOptions(); }
+
+int KernelThreads() {
+  const int requested = GetKernelOptions().threads;
+  return requested > 0 ? requested : omp_get_max_threads();
+}
 
 SolvedImage Solve(const MomentImage& moments, const SolveOptions& options) {
   SolvedImage solved;

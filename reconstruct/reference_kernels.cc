@@ -18,8 +18,6 @@
 namespace transient {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
 bool AllFinite(std::span<const Complex> c) {
   for (const Complex& v : c) {

@@ -195,8 +195,7 @@ TEST(Demodulator, RefusesIncompleteDuplicatedForeignAndMismatchedCycles) {
 
   std::vector<RawFrame> duplicated = good;
   duplicated[9] = good[3];
-  refused(duplicated, "frame " + std::to_string(good[3].config.sequence) + " (" +
-                          DescribeExposure(good[3].config) + ") duplicates the exposure of frame");
+  refused(duplicated, DescribeFrame(good[3].config) + " duplicates the exposure of frame");
 
   std::vector<RawFrame> foreign = good;
   foreign[2].config.harmonic = 5;

@@ -18,7 +18,6 @@ namespace {
 
 constexpr ImageGeometry kGeometry{.width = 6, .height = 4};
 constexpr double kFrequencyHz = 20e6;
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 // Pixel p: two returns, the first at phase 0.4 + 0.1 p; pixel 5 invalid (NaN moments), pixel 7
 // nothing but a uniform part (no return above any threshold).
@@ -35,7 +34,7 @@ std::shared_ptr<const SolvedImage> MakeSolved(int m) {
     measure.uniform = p == 7 ? 1.0 : 0.05;
     const std::vector<Complex> c = measure.Moments(m);
     for (int j = 0; j <= m; ++j) {
-      image.real_plane(j)[p] = p == 5 ? kNaN : static_cast<float>(c[j].real());
+      image.real_plane(j)[p] = p == 5 ? kNaNf : static_cast<float>(c[j].real());
       image.imag_plane(j)[p] = static_cast<float>(c[j].imag());
     }
   }
@@ -136,7 +135,7 @@ TEST(FrameProducts, SlicesAreComputedOncePerPhaseListAndKind) {
 TEST(MergeNoReturn, AnUnexplainedNanIsANoReturnAndInvalidPixelsKeepTheirReason) {
   const std::vector<uint8_t> solved = {0, kFlagInvalidInput, 0, kFlagBiased};
   const std::vector<uint8_t> range_flags = {0, kFlagInvalidInput, kFlagNoReturn, kFlagBiased};
-  const std::vector<float> range = {1.0f, kNaN, kNaN, kNaN};
+  const std::vector<float> range = {1.0f, kNaNf, kNaNf, kNaNf};
   std::vector<uint8_t> out(4);
   MergeNoReturn(solved, range_flags, range, out);
   EXPECT_EQ(out[0], 0);

@@ -22,7 +22,6 @@ using ::testing::HasSubstr;
 using ::transient::testing::IsOk;
 using ::transient::testing::StatusIs;
 
-constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 constexpr float kInfF = std::numeric_limits<float>::infinity();
 constexpr DepthNormalisation kRange{.near_m = 0.5, .far_m = 4.5};  // z̄ = (d - 2.5) / 2
 constexpr MomentMapFormat kFormats[] = {MomentMapFormat::kOptimized64, MomentMapFormat::kFloat128};

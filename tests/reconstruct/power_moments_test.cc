@@ -12,6 +12,7 @@
 
 #include "tests/reconstruct/depth_mixture.h"
 #include "tests/support/status_matchers.h"
+#include "transient/reconstruct/image.h"
 
 namespace transient {
 namespace {
@@ -20,7 +21,6 @@ using ::testing::HasSubstr;
 using ::transient::testing::IsOk;
 using ::transient::testing::StatusIs;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 using Mixture = testing::DepthMixture;  // tests/reconstruct/depth_mixture.h

@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "tests/reconstruct/depth_mixture.h"
+#include "transient/reconstruct/image.h"
 
 namespace transient {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kAlpha64 = kTrigonometricBias64;
 // The closed form is exact for the biased moments; the bias moves the answer by at most α

@@ -57,7 +57,6 @@ using ::transient::testing::ScratchDirectory;
 using ::transient::testing::SecondsSince;
 using ::transient::testing::StatusIs;
 
-constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
 
 ClientArgs GoodArgs(const std::string& dir = "/tmp/out") {
   ClientArgs args;
@@ -152,7 +151,7 @@ TEST(ClientArgs, BadMomentDepthOptionsAreRefusedNamingTheOption) {
   EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
                                         HasSubstr("--moment-bits = 32: expected 64 or 128")));
   args = GoodArgs();
-  args.virtual_plane_m = kNan;
+  args.virtual_plane_m = kNaNf;
   EXPECT_THAT(args.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
                                         HasSubstr("--virtual-plane = nan")));
 }

@@ -32,7 +32,6 @@ using ::transient::testing::ScratchDirectory;
 using ::testing::StartsWith;
 using ::transient::testing::StatusIs;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct BadInputCase {
   std::string name;

@@ -29,7 +29,6 @@ using ::transient::testing::StatusIs;
 // Deliberately odd and non-square, like a real ToF sensor (not a power of two).
 constexpr ImageGeometry kSensor{.width = 163, .height = 120};
 constexpr float kInf = std::numeric_limits<float>::infinity();
-constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
 
 v1::Roi MakeRoi(uint32_t x, uint32_t y, uint32_t width, uint32_t height) {
   v1::Roi roi;
@@ -323,7 +322,7 @@ class FloatRoundTrip : public ::testing::TestWithParam<RoundTripCase> {};
 TEST_P(FloatRoundTrip, CropsAndReproducesTheValuesWithinTheEncodingsPrecision) {
   const auto [encoding, compression] = GetParam();
   std::vector<float> plane = MakePlane(kSmallSensor);
-  plane[SensorIndex(1)] = kNan;
+  plane[SensorIndex(1)] = kNaNf;
   plane[SensorIndex(5)] = kInf;
   plane[SensorIndex(6)] = -kInf;
 
@@ -422,7 +421,7 @@ TEST(EncodeFloatPlane, WritesLittleEndianRowMajorBytes) {
 }
 
 TEST(EncodeFloatPlane, MillimetresAreRoundedAndInvalidLengthsBecomeZero) {
-  const std::vector<float> plane = {1.2345f, 0.001f, 65.535f, kNan, -1.0f,
+  const std::vector<float> plane = {1.2345f, 0.001f, 65.535f, kNaNf, -1.0f,
                                     0.0f,    65.536f, kInf,  1e-5f, 2.0f};
   const ImageGeometry geometry{.width = static_cast<int>(plane.size()), .height = 1};
   const PixelRect all{.x = 0, .y = 0, .width = geometry.width, .height = 1};
@@ -703,7 +702,7 @@ MomentDepthMap SlantedPlaneMap(MomentMapFormat format) {
   for (int64_t p = 0; p < kSensor.pixel_count(); ++p) {
     depth[p] = 1.0f + 0.02f * static_cast<float>(p % kSensor.width);
   }
-  depth[5] = kNan;  // one invalid pixel
+  depth[5] = kNaNf;  // one invalid pixel
   MomentDepthMap map;
   absl::StatusOr<MomentDepthMapBuilder> builder = MomentDepthMapBuilder::Create(
       kSensor, {.normalisation = {.near_m = 0.5, .far_m = 5.0}, .sigma_px = 1.0, .format = format});
@@ -761,7 +760,7 @@ TEST(DecodeMomentDepth, MissingInfoMismatchedBitsBadRangeAndNanMomentsAreDataLos
   EXPECT_THAT(DecodeMomentDepth(image).status(),
               StatusIs(absl::StatusCode::kDataLoss, HasSubstr("moment_depth: ")));
   image = valid;
-  const uint32_t nan_bits = std::bit_cast<uint32_t>(kNan);
+  const uint32_t nan_bits = std::bit_cast<uint32_t>(kNaNf);
   std::memcpy(image.mutable_data()->data() + 4 * 4 * 7 + 4, &nan_bits, 4);  // b2 of pixel 7
   EXPECT_THAT(DecodeMomentDepth(image).status(),
               StatusIs(absl::StatusCode::kDataLoss, HasSubstr("moment 2 of pixel 7 is nan")));

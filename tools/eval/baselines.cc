@@ -37,7 +37,7 @@ constexpr double kSingularProny = 1e-12;
 // 2K + 1 non-zero variables; this only removes the simplex's rounding dust.
 constexpr double kSraKeptFraction = 1e-6;
 
-struct Return {
+struct TimedReturn {
   double time_s;
   double weight;
 };
@@ -63,11 +63,11 @@ double WrapTime(double time_s, double period_s) {
 
 // Sorted by time. Drops what breaks the header's guarantees, which only extreme inputs can
 // produce (weights that overflow when scaled back to near-DBL_MAX measurements).
-SparseReturns ToSparseReturns(std::vector<Return> returns) {
+SparseReturns ToSparseReturns(std::vector<TimedReturn> returns) {
   std::sort(returns.begin(), returns.end(),
-            [](const Return& a, const Return& b) { return a.time_s < b.time_s; });
+            [](const TimedReturn& a, const TimedReturn& b) { return a.time_s < b.time_s; });
   SparseReturns result;
-  for (const Return& r : returns) {
+  for (const TimedReturn& r : returns) {
     if (!(std::isfinite(r.time_s) && std::isfinite(r.weight) && r.weight > 0.0)) continue;
     result.time_of_flight_s.push_back(r.time_s);
     result.weight.push_back(r.weight);
@@ -102,13 +102,13 @@ Eigen::VectorXd FitRealWeights(std::span<const Complex> measurements, double bas
 
 // Fits real weights to the candidate times and drops returns whose weight is not above
 // `negligible` (noise makes some negative), refitting the rest until all are positive.
-std::vector<Return> FitPositiveReturns(std::span<const Complex> measurements,
+std::vector<TimedReturn> FitPositiveReturns(std::span<const Complex> measurements,
                                        double base_frequency_hz, std::vector<double> times_s,
                                        double negligible) {
   while (!times_s.empty()) {
     const Eigen::VectorXd weights = FitRealWeights(measurements, base_frequency_hz, times_s);
     std::vector<double> kept_times;
-    std::vector<Return> returns;
+    std::vector<TimedReturn> returns;
     for (size_t l = 0; l < times_s.size(); ++l) {
       if (weights[l] > negligible) {  // false for NaN too
         kept_times.push_back(times_s[l]);
@@ -300,9 +300,9 @@ absl::StatusOr<SparseReturns> GodbazTwoDirac(std::span<const Complex> measuremen
     const Complex roots[2] = {z1, z2};
     times_s = RootTimes(roots, base_frequency_hz);
   }
-  std::vector<Return> returns =
+  std::vector<TimedReturn> returns =
       FitPositiveReturns(normalized, base_frequency_hz, std::move(times_s), kNegligibleWeight);
-  for (Return& r : returns) r.weight *= scale;
+  for (TimedReturn& r : returns) r.weight *= scale;
   return ToSparseReturns(std::move(returns));
 }
 
@@ -358,9 +358,9 @@ absl::StatusOr<SparseReturns> Spumic(std::span<const Complex> measurements,
   std::vector<double> times_s =
       RootTimes(std::span<const Complex>(roots).first(root_count), base_frequency_hz);
 
-  std::vector<Return> result =
+  std::vector<TimedReturn> result =
       FitPositiveReturns(normalized, base_frequency_hz, std::move(times_s), kNegligibleWeight);
-  for (Return& r : result) r.weight *= scale;
+  for (TimedReturn& r : result) r.weight *= scale;
   return ToSparseReturns(std::move(result));
 }
 
@@ -484,7 +484,7 @@ absl::StatusOr<SparseReturns> Sra(std::span<const double> frequencies_hz,
   int start = 0;
   while (start < grid_bins && x[start] > kept) ++start;
   if (start == grid_bins) start = 0;  // every bin kept (only for tiny grids): one run
-  std::vector<Return> returns;
+  std::vector<TimedReturn> returns;
   double run_weight = 0.0, run_moment = 0.0;
   const double bin_s = period_s / grid_bins;
   const auto close_run = [&] {

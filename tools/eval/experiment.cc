@@ -18,7 +18,6 @@
 namespace transient::eval {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Streams of the benchmark's randomness; each draw is keyed by (seed, stream, ..., trial), so a
 // configuration's numbers do not depend on which other configurations run.

@@ -10,7 +10,6 @@
 namespace transient::eval {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kSqrt2 = std::numbers::sqrt2;
 
 // Past this argument erfc underflows to subnormals (erfc(26.5) ~ 1e-307); beyond it the

@@ -16,7 +16,6 @@
 namespace transient::tools {
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 constexpr Rgb8 kBackgroundSwatch = {150, 150, 150};
 
@@ -110,7 +109,7 @@ absl::Status MomentPictures::SetFrame(int64_t index, std::span<const float> dept
   const double scale = c0_scale > 0.0 && std::isfinite(c0_scale) ? c0_scale : 1.0;
   for (size_t p = 0; p < c0.size(); ++p) {
     grey_[p] =
-        std::isfinite(c0[p]) ? std::clamp(static_cast<float>(c0[p] / scale), 0.0f, 1.0f) : kNaN;
+        std::isfinite(c0[p]) ? std::clamp(static_cast<float>(c0[p] / scale), 0.0f, 1.0f) : kNaNf;
   }
   if (absl::Status status = unfiltered_builder_->Build(depth_m, &unfiltered_); !status.ok()) {
     return status;
@@ -136,7 +135,7 @@ std::vector<float> MomentPictures::Visibility(const Fragments& fragments, Occlus
                                               int blur) const {
   const ImageGeometry g = setup_.geometry;
   const int64_t n = fragments.geometry.pixel_count();
-  std::vector<float> visibility(static_cast<size_t>(n), kNaN);
+  std::vector<float> visibility(static_cast<size_t>(n), kNaNf);
   const std::vector<float>* texels =
       test == OcclusionTest::kHardDepth ? nullptr : &texels_[static_cast<size_t>(blur)];
   const MomentBias bias = kQuantized16MomentBias;

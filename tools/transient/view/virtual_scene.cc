@@ -11,7 +11,6 @@
 namespace transient::tools {
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 // The backdrop's viewer sees a wider field than the camera (focal lengths times this), so the
 // whole backdrop fits with some margin.
@@ -68,9 +67,9 @@ Fragments EmptyFragments(const MomentSetup& setup) {
   Fragments f;
   f.geometry = setup.output_geometry();
   const size_t n = static_cast<size_t>(f.geometry.pixel_count());
-  f.depth_m.assign(n, kNaN);
-  f.x.assign(n, kNaN);
-  f.y.assign(n, kNaN);
+  f.depth_m.assign(n, kNaNf);
+  f.x.assign(n, kNaNf);
+  f.y.assign(n, kNaNf);
   return f;
 }
 

@@ -128,5 +128,7 @@ class AcquisitionSchedule {
 
 // "harmonic 2 (46 MHz), phase shift 1.5708 rad, exposure 1.92 ms, illumination on, take 0".
 std::string DescribeExposure(const ExposureConfig& config);
+// A raw frame in messages: "frame 17 (cycle 1, harmonic 2 (46 MHz), ...)".
+std::string DescribeFrame(const ExposureConfig& config);
 
 }  // namespace transient

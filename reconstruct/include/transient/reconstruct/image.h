@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -9,6 +10,10 @@
 namespace transient {
 
 // Width and height of a sensor image in pixels. Planes are row-major with stride == width.
+// NaN marks a value that is not there (an invalid pixel, a missing product) in every image.
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+inline constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+
 struct ImageGeometry {
   int width = 0;
   int height = 0;

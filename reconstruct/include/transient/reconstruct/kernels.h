@@ -21,6 +21,8 @@ struct KernelOptions {
 // Process-wide choice; set it before reconstruction starts, not concurrently with it.
 void SetKernelOptions(const KernelOptions& options);
 KernelOptions GetKernelOptions();
+// The OpenMP threads an optimized kernel uses: GetKernelOptions().threads, or one per core.
+int KernelThreads();
 
 #define TRANSIENT_KERNEL_DECLARATIONS                                                              \
   void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage* solved);        \
