@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "cycle_queue.h"
 #include "live_calibration.h"
 #include "reconstruction_stage.h"
@@ -220,6 +221,11 @@ void Pipeline::Impl::SourceLoop() {
     {
       absl::MutexLock lock(&Hdf5Mutex());
       next = source->Next(kNextTimeout, &frame);
+      std::vector<SourceCounter> counters = source->Counters();
+      if (!counters.empty()) {
+        absl::MutexLock stats_lock(&mu);
+        stats.source_counters = std::move(counters);
+      }
       if (next.ok()) {
         std::shared_ptr<const CalibrationTable> table;
         {
@@ -381,6 +387,14 @@ void Pipeline::Impl::ReconstructLoop() {
           s.raw_frames_in, s.frames_reconstructed, s.frames_per_second, s.frames_published,
           s.cycles_dropped, s.cycles_refused, s.latency_p50_ms, s.latency_p99_ms,
           s.subscribers.size()));
+      if (!s.source_counters.empty()) {
+        std::vector<std::string> counters;
+        for (const SourceCounter& c : s.source_counters) {
+          if (c.value != 0) counters.push_back(absl::StrCat(c.name, " ", c.value));
+        }
+        Log(absl::StrCat("source counters: ",
+                         counters.empty() ? "all 0" : absl::StrJoin(counters, ", ")));
+      }
     }
   }
 }

@@ -492,6 +492,12 @@ class TransientServer::Service final : public v1::Transient::Service {
       for (v1::Product p : sub.products.List()) o->add_products(p);
     }
     ToProto(s.recording, out->mutable_recording());
+    for (const SourceCounter& c : s.source_counters) {
+      v1::SourceCounter* o = out->add_source_counters();
+      o->set_name(c.name);
+      o->set_value(c.value);
+      o->set_description(c.description);
+    }
     return grpc::Status::OK;
   }
 

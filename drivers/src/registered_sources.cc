@@ -11,6 +11,7 @@ namespace transient {
 namespace internal {
 extern const SourceScheme kSimulatorScheme;  // src/sim/simulator_scheme.cc
 extern const SourceScheme kReplayScheme;     // src/replay/replay_scheme.cc
+extern const SourceScheme kV4l2Scheme;       // src/v4l2/v4l2_source.cc
 }  // namespace internal
 
 namespace {
@@ -18,6 +19,7 @@ namespace {
 const SourceScheme* const kSchemes[] = {
     &internal::kSimulatorScheme,
     &internal::kReplayScheme,
+    &internal::kV4l2Scheme,
 };
 
 std::string SchemeNames() {

@@ -15,6 +15,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "absl/time/clock.h"
 #include "v4l2/frame_unpacker.h"
 
@@ -93,6 +94,57 @@ std::string DescribeControlRange(const ControlDescription& c) {
   if (c.step > 1) absl::StrAppend(&type, " step ", c.step);
   return type;
 }
+
+std::string DescribeControlValue(const ControlDescription& control,
+                                 std::span<const int64_t> values) {
+  if (control.type == V4L2_CTRL_TYPE_BUTTON) return absl::StrCat("'", control.name, "' pressed");
+  return absl::StrCat("'", control.name, "' = ", absl::StrJoin(values, ","));
+}
+
+namespace {
+
+// Array controls (U8/U16/U32, the ToF controls) carry their elements behind a pointer;
+// the others in value / value64.
+size_t ElementBytes(const ControlDescription& control) {
+  switch (control.type) {
+    case V4L2_CTRL_TYPE_U8:
+      return 1;
+    case V4L2_CTRL_TYPE_U16:
+      return 2;
+    case V4L2_CTRL_TYPE_U32:
+      return 4;
+    default:
+      return 0;
+  }
+}
+
+int64_t ReadElement(const std::vector<uint8_t>& payload, size_t element_bytes, size_t i) {
+  const uint8_t* at = payload.data() + i * element_bytes;
+  if (element_bytes == 1) return *at;
+  if (element_bytes == 2) {
+    uint16_t value;
+    std::memcpy(&value, at, 2);
+    return value;
+  }
+  uint32_t value;
+  std::memcpy(&value, at, 4);
+  return value;
+}
+
+void WriteElement(std::vector<uint8_t>& payload, size_t element_bytes, size_t i, int64_t value) {
+  uint8_t* at = payload.data() + i * element_bytes;
+  if (element_bytes == 1) {
+    *at = static_cast<uint8_t>(value);
+  } else if (element_bytes == 2) {
+    const auto v = static_cast<uint16_t>(value);
+    std::memcpy(at, &v, 2);
+  } else {
+    const auto v = static_cast<uint32_t>(value);
+    std::memcpy(at, &v, 4);
+  }
+}
+
+}  // namespace
 
 absl::StatusOr<V4l2Device> V4l2Device::Open(const std::string& path) {
   // stat, not fstat: emulated nodes are character devices to stat (research §3.1).
@@ -223,6 +275,89 @@ absl::StatusOr<std::vector<ControlDescription>> V4l2Device::EnumerateControls() 
   }
   return absl::InternalError(absl::StrCat(path_, ": VIDIOC_QUERY_EXT_CTRL lists more than ",
                                           kMaxEnumerated, " controls"));
+}
+
+absl::Status V4l2Device::SetControls(std::span<const ControlValue> values) {
+  std::vector<v4l2_ext_control> controls(values.size());
+  std::vector<std::vector<uint8_t>> payloads(values.size());
+  for (size_t i = 0; i < values.size(); ++i) {
+    const ControlDescription& control = *values[i].control;
+    const std::vector<int64_t>& elements = values[i].values;
+    v4l2_ext_control& c = controls[i];
+    c.id = control.id;
+    const size_t element_bytes = ElementBytes(control);
+    if (element_bytes > 0) {
+      if (elements.empty() || elements.size() > std::max<uint32_t>(control.elements, 1)) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            path_, ": ", DescribeControlValue(control, elements), ": the control holds 1 to ",
+            std::max<uint32_t>(control.elements, 1), " elements"));
+      }
+      payloads[i].resize(elements.size() * element_bytes);
+      for (size_t e = 0; e < elements.size(); ++e) {
+        WriteElement(payloads[i], element_bytes, e, elements[e]);
+      }
+      c.size = static_cast<uint32_t>(payloads[i].size());
+      c.ptr = payloads[i].data();
+    } else if (control.type == V4L2_CTRL_TYPE_INTEGER64) {
+      c.value64 = elements.empty() ? 0 : elements[0];
+    } else {
+      c.value = elements.empty() ? 0 : static_cast<int32_t>(elements[0]);
+    }
+  }
+  v4l2_ext_controls request{};
+  request.which = V4L2_CTRL_WHICH_CUR_VAL;
+  request.count = static_cast<uint32_t>(controls.size());
+  request.controls = controls.data();
+  if (Ioctl(VIDIOC_S_EXT_CTRLS, &request) == 0) return absl::OkStatus();
+  const int error = errno;
+  if (error == ENODEV) return IoctlError("VIDIOC_S_EXT_CTRLS", error);
+  std::string which;
+  if (request.error_idx < values.size()) {
+    which = DescribeControlValue(*values[request.error_idx].control,
+                                 values[request.error_idx].values);
+  } else {
+    std::vector<std::string> all;
+    for (const ControlValue& value : values) {
+      all.push_back(DescribeControlValue(*value.control, value.values));
+    }
+    which = absl::StrJoin(all, ", ");
+  }
+  return absl::InvalidArgumentError(absl::StrCat(path_, ": VIDIOC_S_EXT_CTRLS ", which,
+                                                 ": the driver refused it (",
+                                                 std::strerror(error), ")"));
+}
+
+absl::StatusOr<std::vector<int64_t>> V4l2Device::GetControl(const ControlDescription& control) {
+  v4l2_ext_control c{};
+  c.id = control.id;
+  const size_t element_bytes = ElementBytes(control);
+  std::vector<uint8_t> payload;
+  if (element_bytes > 0) {
+    payload.resize(std::max<uint32_t>(control.elements, 1) * element_bytes);
+    c.size = static_cast<uint32_t>(payload.size());
+    c.ptr = payload.data();
+  }
+  v4l2_ext_controls request{};
+  request.which = V4L2_CTRL_WHICH_CUR_VAL;
+  request.count = 1;
+  request.controls = &c;
+  if (Ioctl(VIDIOC_G_EXT_CTRLS, &request) != 0) {
+    return IoctlError(absl::StrCat("VIDIOC_G_EXT_CTRLS '", control.name, "'").c_str(), errno);
+  }
+  std::vector<int64_t> values;
+  if (element_bytes == 0) {
+    values.push_back(control.type == V4L2_CTRL_TYPE_INTEGER64 ? c.value64 : c.value);
+    return values;
+  }
+  if (c.size > payload.size() || c.size % element_bytes != 0) {
+    return absl::InternalError(absl::StrCat(path_, ": VIDIOC_G_EXT_CTRLS '", control.name,
+                                            "' returned ", c.size, " bytes for at most ",
+                                            payload.size()));
+  }
+  for (size_t e = 0; e < c.size / element_bytes; ++e) {
+    values.push_back(ReadElement(payload, element_bytes, e));
+  }
+  return values;
 }
 
 absl::StatusOr<NegotiatedFormat> V4l2Device::SetFormat(uint32_t fourcc, ImageGeometry geometry) {

@@ -59,6 +59,17 @@ bool IsTofControl(const ControlDescription& control);
 // "u16[8] 0..315 step 45", "menu 0..2", "button", ...
 std::string DescribeControlRange(const ControlDescription& control);
 
+// Elements of a control to set: one for a scalar or a one-element array, the array's for an
+// array (a dynamic array takes its length from them), none for a button.
+struct ControlValue {
+  const ControlDescription* control = nullptr;
+  std::vector<int64_t> values;
+};
+
+// "'TOF Phase Sequence' = 0,90,180,270" for messages.
+std::string DescribeControlValue(const ControlDescription& control,
+                                 std::span<const int64_t> values);
+
 // The format the driver agreed to (VIDIOC_S_FMT's read-back).
 struct NegotiatedFormat {
   uint32_t fourcc = 0;
@@ -94,6 +105,13 @@ class V4l2Device {
   absl::StatusOr<std::vector<PixelFormatDescription>> EnumerateFormats();
   // VIDIOC_QUERY_EXT_CTRL with NEXT_CTRL | NEXT_COMPOUND until EINVAL; disabled ones skipped.
   absl::StatusOr<std::vector<ControlDescription>> EnumerateControls();
+
+  // VIDIOC_S_EXT_CTRLS of `values` in one call (the driver applies all or none).
+  // InvalidArgument naming the control the driver refused (its error_idx), the value and the
+  // errno; Unavailable when the device is gone.
+  absl::Status SetControls(std::span<const ControlValue> values);
+  // VIDIOC_G_EXT_CTRLS of one control: its current elements (a dynamic array's current length).
+  absl::StatusOr<std::vector<int64_t>> GetControl(const ControlDescription& control);
 
   // VIDIOC_S_FMT for single-planar capture. A driver that grants another pixel format or size
   // is refused: InvalidArgument naming what was asked and what was granted.

@@ -7,10 +7,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstddef>
 #include <cerrno>
 #include <cstring>
 #include <deque>
+#include <map>
 #include <mutex>
+#include <utility>
 #include <stdexcept>
 
 #include "absl/strings/str_cat.h"
@@ -24,8 +27,6 @@ struct EmulatedTofSensor::State {
     EmulatedNode behaviour;
     UMockdevIoctlBase* handler = nullptr;
     std::string file;  // the regular file behind /dev/<name>, which holds the buffers
-    // Runtime state; the handler runs on umockdev's thread, the test pushes frames on its own.
-    std::mutex mutex;
     bool unplugged = false;
     uint32_t fourcc = 0;
     size_t bytes_per_line = 0, image_bytes = 0;
@@ -35,7 +36,16 @@ struct EmulatedTofSensor::State {
     bool streaming = false;
     std::deque<EmulatedFrame> frames;
     uint32_t next_sequence = 0;
+    std::map<uint32_t, std::vector<int64_t>> values;  // current control values
+    std::vector<SequenceFault> faults;
+    int64_t sequences_started = 0;
+    int64_t clock_ns = 1'000'000'000;
+    uint32_t frames_lost_pending = 0;
+    State* owner = nullptr;
   };
+  // The handler runs on umockdev's thread, the test on its own: one lock for all nodes (a
+  // trigger on a subdevice starts frames on its video node).
+  std::mutex mutex;
   std::vector<std::unique_ptr<Node>> nodes;
 
   Node& Find(const std::string& name) {
@@ -43,6 +53,17 @@ struct EmulatedTofSensor::State {
       if (node->behaviour.name == name) return *node;
     }
     throw std::runtime_error(absl::StrCat("no emulated node ", name));
+  }
+  // The node holding `node`'s controls.
+  Node& ControlsOf(Node& node) {
+    return node.behaviour.controls_on.empty() ? node : Find(node.behaviour.controls_on);
+  }
+  // The node whose frames `node`'s controls program.
+  Node& FramesOf(Node& node) {
+    for (auto& other : nodes) {
+      if (other->behaviour.controls_on == node.behaviour.name) return *other;
+    }
+    return node;
   }
 };
 
@@ -77,10 +98,247 @@ void Complete(UMockdevIoctlClient* client, int error) {
   umockdev_ioctl_client_complete(client, error == 0 ? 0 : -1, error);
 }
 
+using State = EmulatedTofSensor::State;
 using NodeState = EmulatedTofSensor::State::Node;
 
+constexpr const char* kPhaseSequenceName = "TOF Phase Sequence";
+constexpr const char* kFrequencyName = "TOF Frequency Modulation";
+constexpr const char* kIntegrationName = "TOF Time Integration";
+
+const ControlDescription* ControlById(const NodeState& node, uint32_t id) {
+  for (const ControlDescription& control : node.behaviour.controls) {
+    if (control.id == id) return &control;
+  }
+  return nullptr;
+}
+
+const ControlDescription* ControlByName(const NodeState& node, const std::string& name) {
+  for (const ControlDescription& control : node.behaviour.controls) {
+    if (control.name == name) return &control;
+  }
+  return nullptr;
+}
+
+std::vector<int64_t> ValueOf(const NodeState& node, const std::string& name) {
+  const ControlDescription* control = ControlByName(node, name);
+  if (control == nullptr) return {};
+  auto it = node.values.find(control->id);
+  return it == node.values.end() ? std::vector<int64_t>{} : it->second;
+}
+
+size_t ElementBytes(uint32_t type) {
+  if (type == V4L2_CTRL_TYPE_U8) return 1;
+  if (type == V4L2_CTRL_TYPE_U16) return 2;
+  if (type == V4L2_CTRL_TYPE_U32) return 4;
+  return 0;
+}
+
+// The V4L2 core's ROUND_TO_RANGE for integer elements: clamped to the range, rounded to the
+// nearest step from the minimum (half a step up).
+int64_t RoundToRange(const ControlDescription& control, int64_t value) {
+  const auto step = static_cast<int64_t>(std::max<uint64_t>(control.step, 1));
+  if (value >= control.maximum - step / 2) {
+    value = control.maximum;
+  } else {
+    value += step / 2;
+  }
+  value = std::clamp(value, control.minimum, control.maximum);
+  return control.minimum + (value - control.minimum) / step * step;
+}
+
+std::vector<int64_t> DefaultValue(const ControlDescription& control) {
+  if (control.type == V4L2_CTRL_TYPE_BUTTON) return {};
+  const size_t count = control.dynamic_array() ? 1 : std::max<uint32_t>(control.elements, 1);
+  return std::vector<int64_t>(count, control.default_value);
+}
+
+template <typename T>
+T LoadElement(const uint8_t* at) {
+  T value;
+  std::memcpy(&value, at, sizeof(T));
+  return value;
+}
+
+int64_t TriggerMode(State& state, NodeState& controls) {
+  const ControlDescription* mode = ControlById(controls, kCidCameraTriggerMode);
+  if (mode == nullptr) mode = ControlByName(controls, "Camera Trigger Mode");
+  if (mode == nullptr) return 0;
+  (void)state;
+  return controls.values[mode->id].empty() ? 0 : controls.values[mode->id][0];
+}
+
+// Starts a sequence on `video` with the current values of `controls`: renders its frames (or
+// what the sequence's fault makes of them) into the delivery queue.
+void StartSequence(State& state, NodeState& video, NodeState& controls) {
+  (void)state;
+  ProgrammedSequence program;
+  program.index = video.sequences_started++;
+  const std::vector<int64_t> frequency = ValueOf(controls, kFrequencyName);
+  program.frequency_hz = frequency.empty() ? 0.0 : static_cast<double>(frequency[0]);
+  program.phases_deg = ValueOf(controls, kPhaseSequenceName);
+  program.integration_us = ValueOf(controls, kIntegrationName);
+  std::vector<SequenceFault> faults;
+  for (const SequenceFault& fault : video.faults) {
+    if (fault.sequence == program.index) faults.push_back(fault);
+  }
+  for (const SequenceFault& fault : faults) {
+    if (fault.kind == SequenceFault::kStall) return;
+    if (fault.kind == SequenceFault::kUnplug) {
+      video.unplugged = controls.unplugged = true;
+      return;
+    }
+  }
+  const ImageGeometry geometry = video.behaviour.sensor;
+  const std::vector<std::vector<int32_t>> samples = video.behaviour.renderer(program, geometry);
+  video.clock_ns += video.behaviour.idle_ns;
+  for (size_t k = 0; k < samples.size(); ++k) {
+    video.clock_ns += video.behaviour.frame_ns;
+    EmulatedFrame frame;
+    frame.bytes = PackSamples(video.fourcc, geometry, video.bytes_per_line,
+                              video.behaviour.sample_bits, samples[k]);
+    frame.bytes.resize(video.image_bytes, 0);
+    frame.timestamp_ns = video.clock_ns;
+    bool lost = false;
+    for (const SequenceFault& fault : faults) {
+      if (fault.frame != static_cast<int>(k)) continue;
+      if (fault.kind == SequenceFault::kErrorFlag) frame.error_flag = true;
+      if (fault.kind == SequenceFault::kShortFrame) frame.bytes.resize(frame.bytes.size() / 2);
+      if (fault.kind == SequenceFault::kLostFrame) lost = true;
+    }
+    if (lost) {
+      ++video.frames_lost_pending;
+      continue;
+    }
+    frame.frames_lost_before = std::exchange(video.frames_lost_pending, 0);
+    video.frames.push_back(std::move(frame));
+  }
+  for (const SequenceFault& fault : faults) {
+    if (fault.kind != SequenceFault::kControlChanged) continue;
+    if (const ControlDescription* f = ControlByName(controls, kFrequencyName)) {
+      controls.values[f->id] = {fault.value};
+    }
+  }
+}
+
+// VIDIOC_G_EXT_CTRLS / VIDIOC_S_EXT_CTRLS as the V4L2 core answers them.
+int AnswerControls(State& state, NodeState& node, unsigned long request,
+                   UMockdevIoctlClient* client) {
+  GError* error = nullptr;
+  UMockdevIoctlData* header_data = umockdev_ioctl_data_resolve(
+      umockdev_ioctl_client_get_arg(client), 0, sizeof(v4l2_ext_controls), &error);
+  if (header_data == nullptr) {
+    if (error != nullptr) g_error_free(error);
+    return EFAULT;
+  }
+  auto* header = reinterpret_cast<v4l2_ext_controls*>(header_data->data);
+  if (header->which != V4L2_CTRL_WHICH_CUR_VAL) return EINVAL;
+  const uint32_t count = header->count;
+  header->error_idx = count;
+  if (count == 0) return 0;
+  UMockdevIoctlData* array_data =
+      umockdev_ioctl_data_resolve(header_data, offsetof(v4l2_ext_controls, controls),
+                                  count * sizeof(v4l2_ext_control), &error);
+  if (array_data == nullptr) {
+    if (error != nullptr) g_error_free(error);
+    return EFAULT;
+  }
+  auto* controls = reinterpret_cast<v4l2_ext_control*>(array_data->data);
+  // Validate everything first: the core applies all controls or none.
+  std::vector<std::pair<const ControlDescription*, std::vector<int64_t>>> staged;
+  for (uint32_t i = 0; i < count; ++i) {
+    v4l2_ext_control& c = controls[i];
+    const ControlDescription* description = ControlById(node, c.id);
+    header->error_idx = i;
+    if (description == nullptr) return EINVAL;
+    const size_t element_bytes = ElementBytes(description->type);
+    const size_t capacity = std::max<uint32_t>(description->elements, 1);
+    uint8_t* payload = nullptr;
+    if (element_bytes > 0) {
+      if (c.size == 0) return EINVAL;
+      UMockdevIoctlData* payload_data = umockdev_ioctl_data_resolve(
+          array_data, i * sizeof(v4l2_ext_control) + offsetof(v4l2_ext_control, ptr), c.size,
+          &error);
+      if (payload_data == nullptr) {
+        if (error != nullptr) g_error_free(error);
+        return EFAULT;
+      }
+      payload = payload_data->data;
+    }
+    if (request == VIDIOC_G_EXT_CTRLS) {
+      if (description->type == V4L2_CTRL_TYPE_BUTTON) return EACCES;  // write-only
+      const std::vector<int64_t>& value = node.values[description->id];
+      if (element_bytes == 0) {
+        c.value = value.empty() ? 0 : static_cast<int32_t>(value[0]);
+        continue;
+      }
+      const size_t needed = value.size() * element_bytes;
+      if (c.size < needed) {
+        c.size = static_cast<uint32_t>(needed);
+        return ENOSPC;
+      }
+      for (size_t e = 0; e < value.size(); ++e) {
+        if (element_bytes == 2) {
+          const auto v = static_cast<uint16_t>(value[e]);
+          std::memcpy(payload + e * 2, &v, 2);
+        } else if (element_bytes == 4) {
+          const auto v = static_cast<uint32_t>(value[e]);
+          std::memcpy(payload + e * 4, &v, 4);
+        } else {
+          payload[e] = static_cast<uint8_t>(value[e]);
+        }
+      }
+      c.size = static_cast<uint32_t>(needed);
+      continue;
+    }
+    if (description->id == node.behaviour.refuse_control) return EINVAL;
+    std::vector<int64_t> value;
+    if (element_bytes == 0) {
+      if (description->type == V4L2_CTRL_TYPE_MENU &&
+          (c.value < description->minimum || c.value > description->maximum)) {
+        return EINVAL;
+      }
+      if (description->type != V4L2_CTRL_TYPE_BUTTON) {
+        value.push_back(description->type == V4L2_CTRL_TYPE_INTEGER
+                            ? RoundToRange(*description, c.value)
+                            : c.value);
+      }
+    } else {
+      if (c.size % element_bytes != 0) return EINVAL;
+      const size_t elements = c.size / element_bytes;
+      if (description->dynamic_array() ? elements > capacity : elements != capacity) {
+        return EINVAL;
+      }
+      for (size_t e = 0; e < elements; ++e) {
+        const uint8_t* at = payload + e * element_bytes;
+        const int64_t raw = element_bytes == 2   ? LoadElement<uint16_t>(at)
+                            : element_bytes == 4 ? LoadElement<uint32_t>(at)
+                                                 : *at;
+        value.push_back(RoundToRange(*description, raw));
+      }
+    }
+    if (description->type == V4L2_CTRL_TYPE_BUTTON &&
+        (description->id == kCidCameraTrigger || description->name == "Camera Trigger") &&
+        TriggerMode(state, node) != 1) {
+      return EBUSY;  // the driver grabs the button unless the trigger mode is internal
+    }
+    staged.emplace_back(description, std::move(value));
+  }
+  header->error_idx = count;
+  if (request == VIDIOC_G_EXT_CTRLS) return 0;
+  for (auto& [description, value] : staged) {
+    if (description->type == V4L2_CTRL_TYPE_BUTTON) {
+      NodeState& video = state.FramesOf(node);
+      if (video.streaming && video.behaviour.renderer) StartSequence(state, video, node);
+      continue;
+    }
+    node.values[description->id] = std::move(value);
+  }
+  return 0;
+}
+
 // The streaming ioctls, as the V4L2 API documentation describes a driver's side.
-int AnswerStreaming(NodeState& state, unsigned long request, UMockdevIoctlClient* client) {
+int AnswerStreaming(State& sensor, NodeState& state, unsigned long request,
+                    UMockdevIoctlClient* client) {
   const EmulatedNode& node = state.behaviour;
   if (request == VIDIOC_S_FMT) {
     auto* format = Argument<v4l2_format>(client);
@@ -147,6 +405,12 @@ int AnswerStreaming(NodeState& state, unsigned long request, UMockdevIoctlClient
     auto* buffer = Argument<v4l2_buffer>(client);
     if (buffer == nullptr) return EFAULT;
     if (!state.streaming) return EINVAL;
+    if (state.frames.empty() && state.behaviour.renderer && !state.queued.empty()) {
+      // Continuous mode: the sensor takes one sequence after another.
+      NodeState& controls = sensor.ControlsOf(state);
+      if (TriggerMode(sensor, controls) == 0) StartSequence(sensor, state, controls);
+      if (state.unplugged) return ENODEV;
+    }
     if (state.queued.empty() || state.frames.empty()) return EAGAIN;
     const int index = state.queued.front();
     state.queued.pop_front();
@@ -179,8 +443,8 @@ int AnswerStreaming(NodeState& state, unsigned long request, UMockdevIoctlClient
 }
 
 // The kernel's answers, as linux/videodev2.h and the V4L2 API documentation give them.
-int Answer(NodeState& state, UMockdevIoctlClient* client) {
-  std::lock_guard<std::mutex> lock(state.mutex);
+int Answer(State& sensor, NodeState& state, UMockdevIoctlClient* client) {
+  std::lock_guard<std::mutex> lock(sensor.mutex);
   if (state.unplugged) return ENODEV;
   const EmulatedNode& node = state.behaviour;
   const unsigned long request = umockdev_ioctl_client_get_request(client);
@@ -238,33 +502,66 @@ int Answer(NodeState& state, UMockdevIoctlClient* client) {
     query->dims[0] = array ? found->elements : 0;
     return 0;
   }
+  if (request == VIDIOC_G_EXT_CTRLS || request == VIDIOC_S_EXT_CTRLS) {
+    return AnswerControls(sensor, state, request, client);
+  }
   // What the kernel says to an ioctl the driver does not know: ENOTTY.
-  return AnswerStreaming(state, request, client);
+  return AnswerStreaming(sensor, state, request, client);
 }
 
-gboolean HandleIoctl(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer node) {
-  Complete(client, Answer(*static_cast<NodeState*>(node), client));
+gboolean HandleIoctl(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer data) {
+  auto* node = static_cast<NodeState*>(data);
+  Complete(client, Answer(*node->owner, *node, client));
   return TRUE;
 }
 
 }  // namespace
 
-std::vector<ControlDescription> Mlx7502xControls() {
-  return {
+std::vector<ControlDescription> Mlx7502xControls(uint32_t tof_base) {
+  std::vector<ControlDescription> controls = {
       {.id = 0x00981ad0, .name = "Output Mode", .type = V4L2_CTRL_TYPE_MENU, .minimum = 0,
        .maximum = 4, .step = 1},
-      {.id = 0x009a0925, .name = "Camera Trigger", .type = V4L2_CTRL_TYPE_BUTTON},
-      {.id = 0x009a0926, .name = "Camera Trigger Mode", .type = V4L2_CTRL_TYPE_MENU,
+      {.id = kCidCameraTrigger, .name = "Camera Trigger", .type = V4L2_CTRL_TYPE_BUTTON},
+      {.id = kCidCameraTriggerMode, .name = "Camera Trigger Mode", .type = V4L2_CTRL_TYPE_MENU,
        .minimum = 0, .maximum = 2, .step = 1},
-      {.id = 0x00a60900, .name = "TOF Phase Sequence", .type = V4L2_CTRL_TYPE_U16, .minimum = 0,
+      {.id = tof_base, .name = kPhaseSequenceName, .type = V4L2_CTRL_TYPE_U16, .minimum = 0,
        .maximum = 315, .step = 45, .elements = 8, .flags = V4L2_CTRL_FLAG_DYNAMIC_ARRAY},
-      {.id = 0x00a60901, .name = "TOF Frequency Modulation", .type = V4L2_CTRL_TYPE_U32,
+      {.id = tof_base + 1, .name = kFrequencyName, .type = V4L2_CTRL_TYPE_U32,
        .minimum = 4'000'000, .maximum = 100'000'000, .default_value = 40'000'000,
        .step = 1'000'000, .elements = 1, .flags = V4L2_CTRL_FLAG_DYNAMIC_ARRAY},
-      {.id = 0x00a60902, .name = "TOF Time Integration", .type = V4L2_CTRL_TYPE_U16,
-       .minimum = 5, .maximum = 1000, .default_value = 198, .step = 1, .elements = 8,
+      {.id = tof_base + 2, .name = kIntegrationName, .type = V4L2_CTRL_TYPE_U16, .minimum = 5,
+       .maximum = 1000, .default_value = 198, .step = 1, .elements = 8,
        .flags = V4L2_CTRL_FLAG_DYNAMIC_ARRAY},
   };
+  // VIDIOC_QUERY_EXT_CTRL enumerates in ascending IDs.
+  std::sort(controls.begin(), controls.end(),
+            [](const ControlDescription& a, const ControlDescription& b) { return a.id < b.id; });
+  return controls;
+}
+
+std::vector<uint8_t> PackSamples(uint32_t fourcc, ImageGeometry geometry, size_t bytes_per_line,
+                                 int bits, const std::vector<int32_t>& samples) {
+  std::vector<uint8_t> bytes(bytes_per_line * static_cast<size_t>(geometry.height), 0);
+  const uint32_t mask = bits >= 32 ? 0xffffffffu : (1u << bits) - 1u;
+  const bool raw12 = fourcc == kFourccY12P || fourcc == kFourccSBGGR12P;
+  for (int y = 0; y < geometry.height; ++y) {
+    uint8_t* row = bytes.data() + static_cast<size_t>(y) * bytes_per_line;
+    for (int x = 0; x < geometry.width; ++x) {
+      const uint32_t code =
+          static_cast<uint32_t>(samples[static_cast<size_t>(y) * geometry.width + x]) & mask;
+      if (raw12) {
+        // Two pixels in three bytes: their high 8 bits, then both low nibbles (P1 high).
+        uint8_t* pair = row + static_cast<size_t>(x / 2) * 3;
+        pair[x % 2] = static_cast<uint8_t>(code >> 4);
+        pair[2] = static_cast<uint8_t>(x % 2 == 0 ? (pair[2] & 0xf0) | (code & 0x0f)
+                                                  : (pair[2] & 0x0f) | ((code & 0x0f) << 4));
+      } else {
+        row[2 * x] = static_cast<uint8_t>(code & 0xff);
+        row[2 * x + 1] = static_cast<uint8_t>(code >> 8);
+      }
+    }
+  }
+  return bytes;
 }
 
 EmulatedTofSensor::EmulatedTofSensor() : state_(std::make_unique<State>()) {
@@ -283,8 +580,13 @@ EmulatedTofSensor::~EmulatedTofSensor() {
 bool EmulatedTofSensor::Available() { return umockdev_in_mock_environment(); }
 
 void EmulatedTofSensor::AddNode(const EmulatedNode& behaviour) {
+  std::lock_guard<std::mutex> lock(state_->mutex);
   auto node = std::make_unique<State::Node>();
   node->behaviour = behaviour;
+  node->owner = state_.get();
+  for (const ControlDescription& control : behaviour.controls) {
+    node->values[control.id] = DefaultValue(control);
+  }
   const int minor = static_cast<int>(state_->nodes.size());
   // A regular file behind the node (its content would hold mmap'd buffers), 81:N to stat.
   const std::string description = absl::StrCat(
@@ -314,15 +616,50 @@ void EmulatedTofSensor::AddNode(const EmulatedNode& behaviour) {
 }
 
 void EmulatedTofSensor::PushFrame(const std::string& name, EmulatedFrame frame) {
-  State::Node& node = state_->Find(name);
-  std::lock_guard<std::mutex> lock(node.mutex);
-  node.frames.push_back(std::move(frame));
+  std::lock_guard<std::mutex> lock(state_->mutex);
+  state_->Find(name).frames.push_back(std::move(frame));
+}
+
+void EmulatedTofSensor::InjectFault(const std::string& name, SequenceFault fault) {
+  std::lock_guard<std::mutex> lock(state_->mutex);
+  state_->Find(name).faults.push_back(fault);
 }
 
 void EmulatedTofSensor::Unplug(const std::string& name) {
+  std::lock_guard<std::mutex> lock(state_->mutex);
   State::Node& node = state_->Find(name);
-  std::lock_guard<std::mutex> lock(node.mutex);
   node.unplugged = true;
+  state_->ControlsOf(node).unplugged = true;
+}
+
+void EmulatedTofSensor::Replug(const std::string& name) {
+  std::lock_guard<std::mutex> lock(state_->mutex);
+  State::Node& node = state_->Find(name);
+  for (State::Node* n : {&node, &state_->ControlsOf(node)}) {
+    n->unplugged = false;
+    n->streaming = false;
+    n->buffers = 0;
+    n->queued.clear();
+    n->frames.clear();
+    n->image_bytes = n->bytes_per_line = 0;
+    n->fourcc = 0;
+  }
+}
+
+void EmulatedTofSensor::SetControl(const std::string& name, uint32_t id,
+                                   std::vector<int64_t> values) {
+  std::lock_guard<std::mutex> lock(state_->mutex);
+  state_->Find(name).values[id] = std::move(values);
+}
+
+std::vector<int64_t> EmulatedTofSensor::Control(const std::string& name, uint32_t id) {
+  std::lock_guard<std::mutex> lock(state_->mutex);
+  return state_->Find(name).values[id];
+}
+
+int64_t EmulatedTofSensor::SequencesStarted(const std::string& name) {
+  std::lock_guard<std::mutex> lock(state_->mutex);
+  return state_->Find(name).sequences_started;
 }
 
 }  // namespace transient::v4l2::testing

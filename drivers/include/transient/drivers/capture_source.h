@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -33,6 +34,14 @@ struct SourceCapabilities {
   bool waits_for_consumer = false;
 };
 
+// A count a source keeps of what happened below the frames it delivers (a camera's buffers,
+// the sequences it dropped and why, stream restarts), for GetStats and the daemon's log.
+struct SourceCounter {
+  std::string name;  // snake_case, e.g. "sequences_dropped_error_flag"
+  int64_t value = 0;
+  std::string description;  // one line: what is counted
+};
+
 // A source of raw frames. Use from one thread: Open, Start, Next... , Stop. Sources run the
 // acquisition schedule they were opened with, cycle after cycle, and stamp every frame with its
 // cycle, take, sequence and timestamp.
@@ -55,6 +64,10 @@ class CaptureSource {
   virtual absl::Status Next(absl::Duration timeout, RawFrame* frame) = 0;
   // Ends acquisition; Start may be called again and continues where it stopped.
   virtual absl::Status Stop() = 0;
+
+  // The source's counters since it was opened, in a fixed order; none for most sources. Called
+  // from the thread that calls Next.
+  virtual std::vector<SourceCounter> Counters() const { return {}; }
 
   // The ground truth of the scene at `timestamp_s`, when the source knows it (the simulator,
   // the replay of a simulated capture); Unimplemented otherwise.

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "absl/time/time.h"
+#include "transient/drivers/capture_source.h"
 #include "transient/service/products.h"
 #include "transient/service/subscription.h"
 
@@ -39,6 +40,9 @@ struct PipelineStats {
   double frames_per_second = 0;  // reconstructed, over the last kRateWindow
   std::vector<SubscriberSnapshot> subscribers;
   RecordingStatus recording;
+  // The open source's own counters (CaptureSource::Counters: a camera's buffers, dropped
+  // sequences by reason, restarts), since it was opened; the last ones while it is closed.
+  std::vector<SourceCounter> source_counters;
 };
 
 // The timing part of PipelineStats: latencies, reconstruction time and rate. Not thread-safe:

@@ -1,0 +1,845 @@
+// The V4L2 capture source (v4l2_source.h): URI, profiles, the programming and read-back of the
+// ToF controls, the capture loop with its watchdog and restarts, and the scheme's registration.
+#include "v4l2/v4l2_source.h"
+
+#include <linux/videodev2.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <deque>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_replace.h"
+#include "absl/strings/str_split.h"
+#include "absl/time/clock.h"
+#include "source_uri.h"
+#include "transient/drivers/source_registry.h"
+#include "transient/reconstruct/status_context.h"
+#include "v4l2/frame_unpacker.h"
+#include "v4l2/sequence_assembler.h"
+#include "v4l2/v4l2_device.h"
+
+namespace transient::v4l2 {
+namespace {
+
+// A read-back frequency within this relative distance of j*f is j*f: the tolerance with which
+// the demodulator matches a frame to its schedule (acquisition.cc).
+constexpr double kFrequencyTolerance = 1e-6;
+
+enum class Profile { kGeneric, kMlx7502x };
+
+constexpr SourceKey kV4l2Keys[] = {
+    {"profile", "generic", "",
+     "generic (the sensor runs the URI's schedule; no controls set) or mlx7502x (the proposed "
+     "ToF controls, set and read back before every sequence, software trigger)"},
+    {"subdev", "the video node", "", "the node with the sensor's controls, e.g. /dev/v4l-subdev0"},
+    {"fmt", "Y12P (mlx7502x), Y12 (generic)", "", "pixel container: Y12, Y12P, Y16, BG12, pBCC"},
+    {"width", "640", "px", "image width; the driver must grant it unchanged"},
+    {"height", "480", "px", "image height (of one phase image); granted unchanged"},
+    {"f", "20e6", "Hz", "base modulation frequency; harmonic j is modulated at j*f"},
+    {"m", "3", "", "harmonics j = 1..m"},
+    {"zeroth", "estimated", "",
+     "zeroth moment: estimated, or proxy (four buckets at proxy_f); pair needs an emitter "
+     "switch that no profile has"},
+    {"proxy_f", "the sensor's lowest frequency (mlx7502x), 900e3 (generic)", "Hz",
+     "frequency of the zeroth-moment proxy"},
+    {"exposure", "500e-6", "s", "integration time of each phase (mlx7502x: whole microseconds)"},
+    {"takes", "1", "", "repetitions of all sequences per transient frame"},
+    {"phases", "0,90,180,270", "deg", "the order in which the sensor takes the four buckets"},
+    {"align", "trigger (mlx7502x), sequence (generic)", "",
+     "buffers to sequences: trigger, sequence (driver sequence numbers) or gap (a pause)"},
+    {"gap_ms", "5", "ms", "pause between sequences (align=gap; align=sequence checks with it)"},
+    {"timeout_ms", "1000", "ms", "watchdog: no buffer for this long restarts the stream"},
+    {"restart", "3", "", "stream restarts without a whole sequence before the source fails"},
+    {"buffers", "8", "", "buffers to request (at least one sequence's)"},
+    {"signed", "1 (mlx7502x), 0 (generic)", "", "samples are two's complement (A - B output)"},
+    {"bits", "12", "", "significant bits of a sample"},
+    {"shift", "0", "", "bits to drop on the right of each container word"},
+    {"subframes", "1", "",
+     "phase images per buffer, stacked vertically (a superframe sensor); 1 = one per buffer"},
+    {"fx", "nominal 60 deg field of view", "px", "focal length x (fy, cx, cy likewise)"},
+    {"ctrl.<name or 0xID>", "", "",
+     "a vendor control to set before streaming, e.g. ctrl.Output%20Mode=0 (comma-separated "
+     "elements for an array)"},
+};
+
+struct Options {
+  std::string device;
+  std::string subdev;
+  Profile profile = Profile::kGeneric;
+  SampleFormat sample;
+  ImageGeometry geometry = {640, 480};
+  ScheduleOptions schedule;
+  bool proxy_given = false;
+  std::vector<int64_t> phases_deg = {0, 90, 180, 270};
+  AssemblerOptions assembly;
+  absl::Duration watchdog = absl::Seconds(1);
+  int restarts = 3;
+  int buffers = 8;
+  int subframes = 1;
+  PinholeIntrinsics intrinsics;
+  std::vector<std::pair<std::string, std::vector<int64_t>>> passthrough;  // ctrl.*
+};
+
+absl::Status BadValue(absl::string_view uri, absl::string_view key, absl::string_view value,
+                      absl::string_view expected) {
+  return absl::InvalidArgumentError(
+      absl::StrCat(uri, ": ", key, " = '", value, "'; expected ", expected));
+}
+
+absl::StatusOr<std::vector<int64_t>> ParseIntegers(absl::string_view text) {
+  std::vector<int64_t> values;
+  for (absl::string_view part : absl::StrSplit(text, ',')) {
+    int64_t value;
+    if (!absl::SimpleAtoi(part, &value)) {
+      return absl::InvalidArgumentError(absl::StrCat("'", part, "' is not an integer"));
+    }
+    values.push_back(value);
+  }
+  return values;
+}
+
+absl::StatusOr<Options> ParseUri(absl::string_view uri) {
+  absl::StatusOr<internal::SourceUri> parsed = internal::ParseSourceUri(uri);
+  if (!parsed.ok()) return parsed.status();
+  Options o;
+  o.device = parsed->target;
+  if (o.device.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(uri, ": no device; expected v4l2:/dev/videoN"));
+  }
+  // The profile first: it sets the defaults of other keys.
+  for (const auto& [key, value] : parsed->keys) {
+    if (key != "profile") continue;
+    if (value == "generic") {
+      o.profile = Profile::kGeneric;
+    } else if (value == "mlx7502x") {
+      o.profile = Profile::kMlx7502x;
+    } else {
+      return BadValue(uri, key, value, "generic or mlx7502x");
+    }
+  }
+  const bool mlx = o.profile == Profile::kMlx7502x;
+  o.sample = {.fourcc = mlx ? kFourccY12P : kFourccY12, .bits = 12, .shift = 0, .is_signed = mlx};
+  o.assembly.alignment = mlx ? Alignment::kTrigger : Alignment::kSequence;
+  o.schedule.base_frequency_hz = 20e6;
+  o.schedule.order = 3;
+  o.schedule.sampling = SamplingScheme::kFourBucket;
+  o.schedule.phase_steps = 1;
+  o.schedule.zeroth = ZerothScheme::kEstimated;
+  o.schedule.exposure_s = 500e-6;
+  double fx = 0, fy = 0, cx = NAN, cy = NAN;
+  for (const auto& [key, value] : parsed->keys) {
+    const auto number = [&, &key = key, &value = value](double* out,
+                                                          absl::string_view expected) {
+      if (!absl::SimpleAtod(value, out) || !std::isfinite(*out)) {
+        return BadValue(uri, key, value, expected);
+      }
+      return absl::OkStatus();
+    };
+    const auto integer = [&, &key = key, &value = value](int* out, int low, int high) {
+      if (!absl::SimpleAtoi(value, out) || *out < low || *out > high) {
+        return BadValue(uri, key, value, absl::StrCat("an integer in ", low, "..", high));
+      }
+      return absl::OkStatus();
+    };
+    absl::Status status;
+    if (key == "profile") {
+      continue;
+    } else if (key == "subdev") {
+      o.subdev = value;
+    } else if (key == "fmt") {
+      bool found = false;
+      for (uint32_t fourcc :
+           {kFourccY12, kFourccY12P, kFourccY16, kFourccSBGGR12, kFourccSBGGR12P}) {
+        if (value == FourccName(fourcc)) {
+          o.sample.fourcc = fourcc;
+          found = true;
+        }
+      }
+      if (!found) return BadValue(uri, key, value, "Y12, Y12P, Y16, BG12 or pBCC");
+      if (o.sample.fourcc == kFourccY16 && o.sample.bits == 12 && !o.sample.is_signed) {
+        o.sample.bits = 16;
+      }
+    } else if (key == "width") {
+      status = integer(&o.geometry.width, 2, 8192);
+    } else if (key == "height") {
+      status = integer(&o.geometry.height, 1, 8192);
+    } else if (key == "f") {
+      status = number(&o.schedule.base_frequency_hz, "a frequency in Hz");
+    } else if (key == "m") {
+      status = integer(&o.schedule.order, 1, kMaxOrder);
+    } else if (key == "zeroth") {
+      absl::StatusOr<ZerothScheme> zeroth = ParseZerothScheme(value);
+      if (!zeroth.ok()) return BadValue(uri, key, value, "estimated or proxy");
+      if (*zeroth == ZerothScheme::kUnmodulatedPair) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            uri, ": zeroth = pair needs the emitter switched off for one exposure, and no "
+                 "profile has a way to (the mlx7502x driver dropped its LED GPIO); use "
+                 "estimated or proxy"));
+      }
+      o.schedule.zeroth = *zeroth;
+    } else if (key == "proxy_f") {
+      status = number(&o.schedule.proxy_frequency_hz, "a frequency in Hz");
+      o.proxy_given = true;
+    } else if (key == "exposure") {
+      status = number(&o.schedule.exposure_s, "an integration time in s");
+    } else if (key == "takes") {
+      status = integer(&o.schedule.takes, 1, 1024);
+    } else if (key == "phases") {
+      absl::StatusOr<std::vector<int64_t>> phases = ParseIntegers(value);
+      std::vector<int64_t> sorted = phases.ok() ? *phases : std::vector<int64_t>{};
+      std::sort(sorted.begin(), sorted.end());
+      if (sorted != std::vector<int64_t>{0, 90, 180, 270}) {
+        return BadValue(uri, key, value,
+                        "the four buckets 0,90,180,270 in the order the sensor takes them "
+                        "(four-bucket sampling; other steps are not supported yet)");
+      }
+      o.phases_deg = *phases;
+    } else if (key == "align") {
+      if (absl::Status s = ParseAlignment(value, &o.assembly.alignment); !s.ok()) {
+        return BadValue(uri, key, value, "trigger, sequence or gap");
+      }
+    } else if (key == "gap_ms") {
+      double ms = 0;
+      status = number(&ms, "a pause in ms");
+      if (status.ok() && ms < 0) status = BadValue(uri, key, value, "a pause >= 0 ms");
+      o.assembly.gap_ns = static_cast<int64_t>(std::llround(ms * 1e6));
+    } else if (key == "timeout_ms") {
+      int ms = 0;
+      status = integer(&ms, 1, 3'600'000);
+      o.watchdog = absl::Milliseconds(ms);
+    } else if (key == "restart") {
+      status = integer(&o.restarts, 0, 1000);
+    } else if (key == "buffers") {
+      status = integer(&o.buffers, 1, 64);
+    } else if (key == "signed") {
+      if (value != "0" && value != "1") return BadValue(uri, key, value, "0 or 1");
+      o.sample.is_signed = value == "1";
+    } else if (key == "bits") {
+      status = integer(&o.sample.bits, 1, 16);
+    } else if (key == "shift") {
+      status = integer(&o.sample.shift, 0, 15);
+    } else if (key == "subframes") {
+      status = integer(&o.subframes, 1, 64);
+    } else if (key == "fx") {
+      status = number(&fx, "a focal length in px");
+    } else if (key == "fy") {
+      status = number(&fy, "a focal length in px");
+    } else if (key == "cx") {
+      status = number(&cx, "a principal point in px");
+    } else if (key == "cy") {
+      status = number(&cy, "a principal point in px");
+    } else if (absl::StartsWith(key, "ctrl.")) {
+      absl::StatusOr<std::vector<int64_t>> values = ParseIntegers(value);
+      if (!values.ok()) return BadValue(uri, key, value, "integers separated by commas");
+      o.passthrough.emplace_back(key.substr(5), *values);
+    } else {
+      return absl::InvalidArgumentError(absl::StrCat(
+          uri, ": unknown key '", key, "' (transient sources lists the keys of v4l2:)"));
+    }
+    if (!status.ok()) return status;
+  }
+  if (o.schedule.zeroth == ZerothScheme::kLowFrequencyProxy && !o.proxy_given && !mlx) {
+    o.schedule.proxy_frequency_hz = 900e3;
+  }
+  if (absl::Status s = o.sample.Validate(); !s.ok()) return WithContext(uri, s);
+  const int per_sequence = static_cast<int>(o.phases_deg.size());
+  if (per_sequence % o.subframes != 0 && o.profile == Profile::kMlx7502x) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        uri, ": subframes = ", o.subframes, " does not divide a sequence of ", per_sequence,
+        " phases"));
+  }
+  if (mlx && o.assembly.alignment != Alignment::kTrigger) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        uri, ": profile mlx7502x needs align=trigger: it sets a new frequency before every "
+             "sequence, which the sensor's continuous mode cannot follow"));
+  }
+  const double fov = 60.0 * std::numbers::pi / 180.0;
+  o.intrinsics.fx = fx > 0 ? fx : o.geometry.width / (2.0 * std::tan(fov / 2));
+  o.intrinsics.fy = fy > 0 ? fy : o.intrinsics.fx;
+  o.intrinsics.cx = std::isfinite(cx) ? cx : (o.geometry.width - 1) / 2.0;
+  o.intrinsics.cy = std::isfinite(cy) ? cy : (o.geometry.height - 1) / 2.0;
+  return o;
+}
+
+// The ToF controls of the mlx7502x profile, found by their proposed IDs, else by name.
+struct TofControls {
+  ControlDescription phases, frequency, integration, trigger, trigger_mode;
+};
+
+absl::StatusOr<ControlDescription> FindControl(const std::vector<ControlDescription>& controls,
+                                               uint32_t id, const std::string& name,
+                                               const std::string& node) {
+  for (const ControlDescription& c : controls) {
+    if (c.id == id) return c;
+  }
+  for (const ControlDescription& c : controls) {
+    if (absl::EqualsIgnoreCase(c.name, name)) return c;
+  }
+  std::vector<std::string> found;
+  for (const ControlDescription& c : controls) found.push_back(absl::StrCat("'", c.name, "'"));
+  return absl::InvalidArgumentError(absl::StrFormat(
+      "%s has no control '%s' (0x%08x)%s; name the node with the sensor's controls with "
+      "subdev=/dev/v4l-subdevN",
+      node, name, id,
+      found.empty() ? " and no controls at all" : absl::StrCat("; it has ", absl::StrJoin(found, ", "))));
+}
+
+absl::StatusOr<ControlDescription> FindPassthrough(const std::vector<ControlDescription>& controls,
+                                                   const std::string& key,
+                                                   const std::string& node) {
+  uint32_t id = 0;
+  if (absl::StartsWith(key, "0x") && absl::SimpleHexAtoi(key.substr(2), &id)) {
+    for (const ControlDescription& c : controls) {
+      if (c.id == id) return c;
+    }
+  } else {
+    for (const ControlDescription& c : controls) {
+      if (absl::EqualsIgnoreCase(c.name, key)) return c;
+    }
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat(node, ": ctrl.", key, ": no such control (transient devices lists them)"));
+}
+
+// One sensor sequence of the cycle: buckets at one frequency, and the frames it stamps.
+struct DeviceSequence {
+  std::vector<ControlValue> program;     // mlx7502x: what to set before the trigger
+  std::vector<std::vector<int64_t>> read_back;  // and what the driver must read back after it
+  std::vector<ExposureConfig> frames;    // the stamps of its frames (cycle/sequence/time unset)
+};
+
+class V4l2Source final : public CaptureSource {
+ public:
+  static absl::StatusOr<std::unique_ptr<CaptureSource>> Open(absl::string_view uri);
+
+  const std::string& uri() const override { return uri_; }
+  const CameraInfo& camera() const override { return camera_; }
+  const AcquisitionSchedule& schedule() const override { return *schedule_; }
+  SourceCapabilities capabilities() const override;
+  absl::Status Start() override;
+  absl::Status Next(absl::Duration timeout, RawFrame* frame) override;
+  absl::Status Stop() override;
+  std::vector<SourceCounter> Counters() const override;
+
+ private:
+  V4l2Source(std::string uri, Options options, V4l2Device device)
+      : uri_(std::move(uri)), options_(std::move(options)), device_(std::move(device)) {}
+
+  V4l2Device& controls_device() { return subdev_.has_value() ? *subdev_ : device_; }
+  absl::Status Configure();
+  absl::Status PlanMlx(const std::vector<ControlDescription>& controls);
+  void PlanGeneric();
+  // Sets a sequence's controls and reads them back into `read_back`.
+  absl::Status Program(const std::vector<ControlValue>& program,
+                       std::vector<std::vector<int64_t>>* read_back);
+  absl::Status Trigger();
+  absl::Status Restart(const std::string& why);
+  absl::Status HandleBuffer(const DequeuedFrame& dequeued);
+  void Emit();
+
+  std::string uri_;
+  Options options_;
+  V4l2Device device_;
+  std::optional<V4l2Device> subdev_;
+  CameraInfo camera_;
+  std::optional<AcquisitionSchedule> schedule_;
+  NegotiatedFormat format_;
+  TofControls tof_;
+  std::vector<DeviceSequence> sequences_;  // of one cycle, in capture order
+  int frames_per_sequence_ = 0;            // phase images of one device sequence
+  std::optional<SequenceAssembler> assembler_;
+
+  // Capture state.
+  bool started_ = false;
+  size_t next_ = 0;          // the device sequence being taken
+  int64_t cycle_ = 0;
+  bool triggered_ = false;   // mlx7502x: a sequence was triggered and is not all out yet
+  int frames_of_trigger_ = 0;
+  std::optional<uint32_t> last_driver_sequence_;
+  absl::Time last_progress_;
+  bool bad_samples_ = false;
+  std::vector<std::vector<float>> slots_;
+  std::vector<DequeuedBuffer> slot_buffers_;
+  std::deque<RawFrame> ready_;
+  uint64_t sequence_base_ = 0;   // added to the driver's sequence numbers (restarts reset them)
+  uint64_t next_sequence_ = 0;   // one past the last frame's sequence
+  std::optional<int64_t> first_timestamp_ns_;
+  int consecutive_restarts_ = 0;
+
+  // Counters beyond the assembler's.
+  int64_t restarts_ = 0, watchdog_timeouts_ = 0, dequeue_errors_ = 0;
+  int64_t dropped_control_changed_ = 0, dropped_bad_samples_ = 0;
+};
+
+absl::StatusOr<std::unique_ptr<CaptureSource>> V4l2Source::Open(absl::string_view uri) {
+  absl::StatusOr<Options> options = ParseUri(uri);
+  if (!options.ok()) return options.status();
+  absl::StatusOr<V4l2Device> device = V4l2Device::Open(options->device);
+  if (!device.ok()) return device.status();
+  std::unique_ptr<V4l2Source> source(
+      new V4l2Source(std::string(uri), *std::move(options), *std::move(device)));
+  if (absl::Status status = source->Configure(); !status.ok()) return status;
+  return std::unique_ptr<CaptureSource>(std::move(source));
+}
+
+absl::Status V4l2Source::Configure() {
+  absl::StatusOr<Capabilities> caps = device_.QueryCapabilities();
+  if (!caps.ok()) return caps.status();
+  if (!caps->capture() || !caps->streaming()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        options_.device, " (", caps->card, ") is not a streaming video capture node; "
+        "transient devices lists the ones that are"));
+  }
+  if (!options_.subdev.empty()) {
+    absl::StatusOr<V4l2Device> subdev = V4l2Device::Open(options_.subdev);
+    if (!subdev.ok()) return subdev.status();
+    subdev_.emplace(*std::move(subdev));
+  }
+  absl::StatusOr<std::vector<ControlDescription>> controls =
+      controls_device().EnumerateControls();
+  if (!controls.ok()) return controls.status();
+  // Vendor controls first: they may change what the ToF controls accept.
+  for (const auto& [key, values] : options_.passthrough) {
+    absl::StatusOr<ControlDescription> control =
+        FindPassthrough(*controls, key, controls_device().path());
+    if (!control.ok()) return control.status();
+    const ControlValue value{&*control, values};
+    if (absl::Status s = controls_device().SetControls({&value, 1}); !s.ok()) return s;
+  }
+  if (options_.profile == Profile::kMlx7502x) {
+    if (absl::Status s = PlanMlx(*controls); !s.ok()) return s;
+  } else {
+    PlanGeneric();
+  }
+  absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(options_.schedule);
+  if (!schedule.ok()) return WithContext(uri_, schedule.status());
+  schedule_.emplace(*std::move(schedule));
+
+  frames_per_sequence_ = static_cast<int>(sequences_.front().frames.size());
+  if (frames_per_sequence_ % options_.subframes != 0) {
+    return absl::InvalidArgumentError(absl::StrCat(uri_, ": subframes = ", options_.subframes,
+                                                   " does not divide a sequence of ",
+                                                   frames_per_sequence_, " phase images"));
+  }
+  ImageGeometry buffer_geometry = options_.geometry;
+  buffer_geometry.height *= options_.subframes;
+  absl::StatusOr<NegotiatedFormat> format =
+      device_.SetFormat(options_.sample.fourcc, buffer_geometry);
+  if (!format.ok()) return format.status();
+  format_ = *format;
+  if (absl::Status s = CheckLayout({buffer_geometry, format_.bytes_per_line}, options_.sample);
+      !s.ok()) {
+    return WithContext(uri_, s);
+  }
+  AssemblerOptions assembly = options_.assembly;
+  assembly.phases = frames_per_sequence_ / options_.subframes;
+  assembly.expected_bytes = format_.image_bytes;
+  if (absl::Status s = assembly.Validate(); !s.ok()) return WithContext(uri_, s);
+  assembler_.emplace(assembly);
+  options_.buffers = std::max(options_.buffers, assembly.phases);
+
+  camera_.geometry = options_.geometry;
+  camera_.intrinsics = options_.intrinsics;
+  camera_.model = absl::StrCat(caps->card, " (", caps->driver, ", ", options_.device, ")");
+  slots_.assign(static_cast<size_t>(frames_per_sequence_),
+                std::vector<float>(static_cast<size_t>(options_.geometry.pixel_count())));
+  slot_buffers_.assign(static_cast<size_t>(frames_per_sequence_), {});
+  return absl::OkStatus();
+}
+
+// The frequencies of a cycle's sequences: for each take, the proxy's (harmonic 0) if measured,
+// then j*f for j = 1..m.
+std::vector<std::pair<int, double>> SequenceFrequencies(const ScheduleOptions& schedule) {
+  std::vector<std::pair<int, double>> sequences;
+  if (schedule.zeroth == ZerothScheme::kLowFrequencyProxy) {
+    sequences.emplace_back(0, schedule.proxy_frequency_hz);
+  }
+  for (int j = 1; j <= schedule.order; ++j) {
+    sequences.emplace_back(j, j * schedule.base_frequency_hz);
+  }
+  return sequences;
+}
+
+ExposureConfig Stamp(int harmonic, double frequency_hz, int64_t phase_deg, double exposure_s,
+                     int take) {
+  ExposureConfig config;
+  config.harmonic = harmonic;
+  config.frequency_hz = frequency_hz;
+  config.phase_shift_rad = static_cast<double>(phase_deg) * std::numbers::pi / 180.0;
+  config.exposure_s = exposure_s;
+  config.illumination = true;
+  config.take = take;
+  return config;
+}
+
+void V4l2Source::PlanGeneric() {
+  // The sensor runs the whole cycle by itself: one device sequence of all its frames.
+  DeviceSequence cycle;
+  for (int take = 0; take < options_.schedule.takes; ++take) {
+    for (const auto& [harmonic, frequency] : SequenceFrequencies(options_.schedule)) {
+      for (int64_t phase : options_.phases_deg) {
+        cycle.frames.push_back(
+            Stamp(harmonic, frequency, phase, options_.schedule.exposure_s, take));
+      }
+    }
+  }
+  sequences_ = {std::move(cycle)};
+}
+
+absl::Status V4l2Source::PlanMlx(const std::vector<ControlDescription>& controls) {
+  const std::string node = controls_device().path();
+  struct Wanted {
+    ControlDescription* out;
+    uint32_t id;
+    const char* name;
+  };
+  for (const Wanted& w : {Wanted{&tof_.phases, kCidTofPhaseSequence, "TOF Phase Sequence"},
+                          Wanted{&tof_.frequency, kCidTofFrequencyModulation,
+                                 "TOF Frequency Modulation"},
+                          Wanted{&tof_.integration, kCidTofTimeIntegration,
+                                 "TOF Time Integration"},
+                          Wanted{&tof_.trigger, kCidCameraTrigger, "Camera Trigger"},
+                          Wanted{&tof_.trigger_mode, kCidCameraTriggerMode,
+                                 "Camera Trigger Mode"}}) {
+    absl::StatusOr<ControlDescription> found = FindControl(controls, w.id, w.name, node);
+    if (!found.ok()) return WithContext(uri_, found.status());
+    *w.out = *found;
+  }
+  if (!options_.proxy_given) {
+    options_.schedule.proxy_frequency_hz = static_cast<double>(tof_.frequency.minimum);
+  }
+  // Internal trigger: the sensor takes one sequence per press of the trigger button.
+  const ControlValue mode{&tof_.trigger_mode, {1}};
+  if (absl::Status s = controls_device().SetControls({&mode, 1}); !s.ok()) {
+    return WithContext(uri_, s);
+  }
+  const auto n = static_cast<int64_t>(options_.phases_deg.size());
+  const int64_t integration_us = std::llround(options_.schedule.exposure_s * 1e6);
+  std::optional<double> exposure_s;
+  sequences_.clear();
+  for (int take = 0; take < options_.schedule.takes; ++take) {
+    for (const auto& [harmonic, frequency] : SequenceFrequencies(options_.schedule)) {
+      DeviceSequence sequence;
+      sequence.program = {
+          {&tof_.frequency, {std::llround(frequency)}},
+          {&tof_.phases, options_.phases_deg},
+          {&tof_.integration, std::vector<int64_t>(static_cast<size_t>(n), integration_us)},
+      };
+      if (absl::Status s = Program(sequence.program, &sequence.read_back); !s.ok()) return s;
+      const auto& read_frequency = sequence.read_back[0];
+      const auto& read_phases = sequence.read_back[1];
+      const auto& read_integration = sequence.read_back[2];
+      const double got = read_frequency.empty() ? 0.0 : static_cast<double>(read_frequency[0]);
+      if (std::abs(got - frequency) > kFrequencyTolerance * frequency) {
+        return absl::InvalidArgumentError(absl::StrFormat(
+            "%s: harmonic %d needs %.9g Hz (%s), the driver set 'TOF Frequency Modulation' to "
+            "%.9g Hz: not j*f within a relative %g. Choose f so that every j*f is a frequency "
+            "the sensor sets exactly (%s)",
+            uri_, harmonic,
+            frequency, harmonic == 0 ? "the proxy" : absl::StrCat(harmonic, " x f").c_str(), got,
+            kFrequencyTolerance, DescribeControlRange(tof_.frequency)));
+      }
+      if (read_phases != options_.phases_deg) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            uri_, ": asked for the phase sequence ", absl::StrJoin(options_.phases_deg, ","),
+            ", the driver set ", absl::StrJoin(read_phases, ",")));
+      }
+      if (read_integration.size() != static_cast<size_t>(n) ||
+          std::adjacent_find(read_integration.begin(), read_integration.end(),
+                             std::not_equal_to<>()) != read_integration.end()) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            uri_, ": asked for ", n, " integration times of ", integration_us,
+            " us, the driver set ", absl::StrJoin(read_integration, ",")));
+      }
+      // The driver rounds the integration time to its step: the frames say what it set.
+      const double read_exposure_s = static_cast<double>(read_integration[0]) * 1e-6;
+      if (exposure_s.has_value() && *exposure_s != read_exposure_s) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(uri_, ": the driver set different integration times for different "
+                               "frequencies (", *exposure_s * 1e6, " and ", read_exposure_s * 1e6,
+                         " us)"));
+      }
+      exposure_s = read_exposure_s;
+      for (int64_t k = 0; k < n; ++k) {
+        sequence.frames.push_back(Stamp(harmonic, got, read_phases[static_cast<size_t>(k)],
+                                        read_exposure_s, take));
+      }
+      sequences_.push_back(std::move(sequence));
+    }
+  }
+  options_.schedule.exposure_s = *exposure_s;
+  return absl::OkStatus();
+}
+
+absl::Status V4l2Source::Program(const std::vector<ControlValue>& program,
+                                 std::vector<std::vector<int64_t>>* read_back) {
+  if (absl::Status s = controls_device().SetControls(program); !s.ok()) {
+    return WithContext(uri_, s);
+  }
+  read_back->clear();
+  for (const ControlValue& value : program) {
+    absl::StatusOr<std::vector<int64_t>> got = controls_device().GetControl(*value.control);
+    if (!got.ok()) return WithContext(uri_, got.status());
+    read_back->push_back(*std::move(got));
+  }
+  return absl::OkStatus();
+}
+
+SourceCapabilities V4l2Source::capabilities() const {
+  SourceCapabilities c;
+  if (options_.profile == Profile::kMlx7502x) {
+    c.min_frequency_hz = static_cast<double>(tof_.frequency.minimum);
+    c.max_frequency_hz = static_cast<double>(tof_.frequency.maximum);
+    c.min_exposure_s = static_cast<double>(tof_.integration.minimum) * 1e-6;
+    c.max_exposure_s = static_cast<double>(tof_.integration.maximum) * 1e-6;
+  } else {
+    c.min_frequency_hz = c.max_frequency_hz = 0.0;
+    c.min_exposure_s = c.max_exposure_s = options_.schedule.exposure_s;
+  }
+  return c;
+}
+
+absl::Status V4l2Source::Start() {
+  if (started_) return absl::FailedPreconditionError(absl::StrCat(uri_, ": already started"));
+  if (absl::Status s = device_.StartStreaming(options_.buffers, assembler_->options().phases);
+      !s.ok()) {
+    return WithContext(uri_, s);
+  }
+  started_ = true;
+  assembler_->Reset();
+  triggered_ = false;
+  last_driver_sequence_.reset();
+  sequence_base_ = next_sequence_;
+  last_progress_ = absl::Now();
+  return absl::OkStatus();
+}
+
+absl::Status V4l2Source::Stop() {
+  if (!started_) return absl::FailedPreconditionError(absl::StrCat(uri_, ": not started"));
+  started_ = false;
+  ready_.clear();
+  return device_.StopStreaming();
+}
+
+absl::Status V4l2Source::Trigger() {
+  DeviceSequence& sequence = sequences_[next_];
+  std::vector<std::vector<int64_t>> read_back;
+  if (absl::Status s = Program(sequence.program, &read_back); !s.ok()) return s;
+  if (read_back != sequence.read_back) {
+    // The driver no longer sets what it set when the source opened: not the schedule.
+    return absl::FailedPreconditionError(absl::StrCat(
+        uri_, ": the driver now reads back other values for ",
+        DescribeControlValue(*sequence.program[0].control, sequence.program[0].values),
+        " than when the source opened"));
+  }
+  const ControlValue press{&tof_.trigger, {}};
+  if (absl::Status s = controls_device().SetControls({&press, 1}); !s.ok()) {
+    return WithContext(uri_, s);
+  }
+  assembler_->BeginSequence();
+  triggered_ = true;
+  frames_of_trigger_ = 0;
+  last_progress_ = absl::Now();
+  return absl::OkStatus();
+}
+
+absl::Status V4l2Source::Restart(const std::string& why) {
+  ++restarts_;
+  if (++consecutive_restarts_ > options_.restarts) {
+    return absl::UnavailableError(absl::StrCat(uri_, ": no whole sequence after ",
+                                               options_.restarts, " stream restarts (", why, ")"));
+  }
+  if (absl::Status s = device_.StopStreaming(); !s.ok()) return WithContext(uri_, s);
+  if (absl::Status s = device_.StartStreaming(options_.buffers, assembler_->options().phases);
+      !s.ok()) {
+    return WithContext(uri_, s);
+  }
+  assembler_->Reset();
+  triggered_ = false;
+  last_driver_sequence_.reset();
+  sequence_base_ = next_sequence_;
+  last_progress_ = absl::Now();
+  bad_samples_ = false;
+  return absl::OkStatus();
+}
+
+absl::Status V4l2Source::HandleBuffer(const DequeuedFrame& dequeued) {
+  const DequeuedBuffer& buffer = dequeued.buffer;
+  if (triggered_) {
+    // The frames of one trigger, lost ones included (the driver's count skips them).
+    const uint32_t lost =
+        last_driver_sequence_.has_value() ? buffer.sequence - *last_driver_sequence_ - 1 : 0;
+    frames_of_trigger_ += 1 + static_cast<int>(std::min<uint32_t>(lost, 1u << 20));
+  }
+  last_driver_sequence_ = buffer.sequence;
+  const Placement placement = assembler_->Add(buffer);
+  if (placement.phase.has_value()) {
+    const int per_buffer = options_.subframes;
+    const size_t sub_bytes = format_.bytes_per_line * static_cast<size_t>(options_.geometry.height);
+    const FrameLayout layout{options_.geometry, format_.bytes_per_line};
+    if (*placement.phase == 0) bad_samples_ = false;
+    for (int s = 0; s < per_buffer; ++s) {
+      const size_t slot = static_cast<size_t>(*placement.phase * per_buffer + s);
+      const std::span<const uint8_t> data =
+          dequeued.data.size() > s * sub_bytes ? dequeued.data.subspan(s * sub_bytes)
+                                               : std::span<const uint8_t>();
+      if (!Unpack(data, layout, options_.sample, slots_[slot]).ok()) bad_samples_ = true;
+      slot_buffers_[slot] = buffer;
+    }
+  }
+  // Copied out: the buffer goes back to the driver at once.
+  if (absl::Status s = device_.Requeue(dequeued.index); !s.ok()) return WithContext(uri_, s);
+  if (triggered_ && frames_of_trigger_ >= frames_per_sequence_ / options_.subframes) {
+    triggered_ = false;  // all of the trigger's frames are out, whatever became of them
+  }
+  if (!placement.completes) return absl::OkStatus();
+  if (bad_samples_) {
+    ++dropped_bad_samples_;
+    bad_samples_ = false;
+    return absl::OkStatus();
+  }
+  if (options_.profile == Profile::kMlx7502x) {
+    // Controls another program set during the sequence: drop it; the next trigger sets them
+    // again (Trigger).
+    std::vector<std::vector<int64_t>> now;
+    for (const ControlValue& value : sequences_[next_].program) {
+      absl::StatusOr<std::vector<int64_t>> got = controls_device().GetControl(*value.control);
+      if (!got.ok()) return WithContext(uri_, got.status());
+      now.push_back(*std::move(got));
+    }
+    if (now != sequences_[next_].read_back) {
+      ++dropped_control_changed_;
+      return absl::OkStatus();
+    }
+  }
+  Emit();
+  return absl::OkStatus();
+}
+
+void V4l2Source::Emit() {
+  const DeviceSequence& sequence = sequences_[next_];
+  const bool saturate_signed = options_.sample.is_signed;
+  const float saturation = static_cast<float>(
+      saturate_signed ? (1 << (options_.sample.bits - 1)) - 1 : (1 << options_.sample.bits) - 1);
+  for (size_t k = 0; k < sequence.frames.size(); ++k) {
+    RawFrame frame;
+    frame.config = sequence.frames[k];
+    frame.config.cycle = cycle_;
+    const DequeuedBuffer& buffer = slot_buffers_[k];
+    frame.config.sequence = sequence_base_ + buffer.sequence;
+    if (!first_timestamp_ns_.has_value()) first_timestamp_ns_ = buffer.timestamp_ns;
+    frame.config.timestamp_s = static_cast<double>(buffer.timestamp_ns - *first_timestamp_ns_) * 1e-9;
+    frame.geometry = options_.geometry;
+    frame.pixels = slots_[k];
+    frame.saturation_level = saturation;
+    next_sequence_ = std::max(next_sequence_, frame.config.sequence + 1);
+    ready_.push_back(std::move(frame));
+  }
+  consecutive_restarts_ = 0;
+  if (++next_ == sequences_.size()) {
+    next_ = 0;
+    ++cycle_;
+  }
+}
+
+absl::Status V4l2Source::Next(absl::Duration timeout, RawFrame* frame) {
+  if (!started_) return absl::FailedPreconditionError(absl::StrCat(uri_, ": not started"));
+  const absl::Time deadline = absl::Now() + timeout;
+  while (ready_.empty()) {
+    if (options_.assembly.alignment == Alignment::kTrigger && !triggered_) {
+      if (absl::Status s = Trigger(); !s.ok()) return s;
+    }
+    const absl::Time now = absl::Now();
+    const absl::Time watchdog = last_progress_ + options_.watchdog;
+    if (now >= watchdog) {
+      ++watchdog_timeouts_;
+      assembler_->Abandon();
+      if (absl::Status s = Restart(absl::StrCat("no buffer for ",
+                                                absl::FormatDuration(options_.watchdog)));
+          !s.ok()) {
+        return s;
+      }
+      continue;
+    }
+    if (now >= deadline) {
+      return absl::DeadlineExceededError(
+          absl::StrCat(uri_, ": no whole sequence within ", absl::FormatDuration(timeout)));
+    }
+    absl::StatusOr<DequeuedFrame> dequeued = device_.Dequeue(std::min(deadline, watchdog) - now);
+    if (!dequeued.ok()) {
+      if (absl::IsDeadlineExceeded(dequeued.status())) continue;
+      if (absl::IsUnavailable(dequeued.status())) return dequeued.status();
+      ++dequeue_errors_;
+      if (absl::Status s = Restart(std::string(dequeued.status().message())); !s.ok()) return s;
+      continue;
+    }
+    last_progress_ = absl::Now();
+    if (absl::Status s = HandleBuffer(*dequeued); !s.ok()) return s;
+  }
+  *frame = std::move(ready_.front());
+  ready_.pop_front();
+  return absl::OkStatus();
+}
+
+std::vector<SourceCounter> V4l2Source::Counters() const {
+  const AssemblerCounters& a = assembler_->counters();
+  std::vector<SourceCounter> counters = {
+      {"buffers", a.buffers, "buffers dequeued from the driver"},
+      {"sequences", a.sequences - dropped_control_changed_ - dropped_bad_samples_,
+       "whole phase sequences delivered as raw frames"},
+  };
+  for (int r = 0; r < kDropReasons; ++r) {
+    counters.push_back({absl::StrCat("sequences_dropped_",
+                                     absl::StrReplaceAll(DropReasonName(static_cast<DropReason>(r)),
+                                                         {{" ", "_"}})),
+                        a.dropped[r],
+                        absl::StrCat("sequences dropped whole: ",
+                                     DropReasonName(static_cast<DropReason>(r)))});
+  }
+  counters.push_back({"sequences_dropped_control_changed", dropped_control_changed_,
+                      "sequences dropped: a control read back other than set at their end"});
+  counters.push_back({"sequences_dropped_bad_samples", dropped_bad_samples_,
+                      "sequences dropped: a buffer's samples did not fit the format"});
+  counters.push_back({"discarded_buffers", a.discarded_buffers,
+                      "buffers that went to no delivered sequence"});
+  counters.push_back({"driver_frames_lost", a.driver_frames_lost,
+                      "frames the driver's sequence numbers skipped"});
+  counters.push_back({"watchdog_timeouts", watchdog_timeouts_,
+                      "times no buffer came within timeout_ms"});
+  counters.push_back({"dequeue_errors", dequeue_errors_, "VIDIOC_DQBUF errors other than ENODEV"});
+  counters.push_back({"restarts", restarts_, "stream restarts (STREAMOFF, STREAMON)"});
+  return counters;
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<CaptureSource>> OpenV4l2Source(absl::string_view uri) {
+  return V4l2Source::Open(uri);
+}
+
+}  // namespace transient::v4l2
+
+namespace transient::internal {
+
+extern const SourceScheme kV4l2Scheme;
+const SourceScheme kV4l2Scheme = {
+    .name = "v4l2",
+    .syntax = "v4l2:/dev/videoN?profile=generic|mlx7502x&key=value&...",
+    .description = "a raw-phase ToF sensor through V4L2 (transient devices lists the nodes)",
+    .keys = v4l2::kV4l2Keys,
+    .capabilities = {},
+    .open = v4l2::OpenV4l2Source,
+};
+
+}  // namespace transient::internal

@@ -1,0 +1,41 @@
+// The emulated sensor's light: each programmed sequence rendered by the project's simulator
+// (its forward model, fixed pattern, noise and ADC; drivers/include/transient/drivers/simulator.h).
+// For a programmed modulation frequency nu and integration time, the four buckets come from a
+// sim: camera of the same scene whose base frequency is nu and m = 1 (four-bucket, zeroth
+// estimated): the scene's correlation at nu, which is what a sensor modulated at nu measures.
+// The simulator's output is black level + (A - B) in ADC counts (sensor.h); a sensor that
+// outputs A - B itself (the mlx7502x's default) gives the counts less the black level, signed.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tests/drivers/v4l2/emulated_tof_sensor.h"
+#include "transient/drivers/capture_source.h"
+
+namespace transient::v4l2::testing {
+
+class SimulatedPhases {
+ public:
+  // `scene_and_keys`: "mirrors?noise=none&..." without f, m, scheme, zeroth, exposure, width,
+  // height, pace, seed (set here; the seed from the frequency). `signed_output`: A - B without the black level.
+  SimulatedPhases(std::string scene_and_keys, bool signed_output);
+
+  std::vector<std::vector<int32_t>> Render(const ProgrammedSequence& sequence,
+                                           ImageGeometry geometry);
+  // A Renderer for EmulatedNode that calls Render on this object (which must outlive it).
+  Renderer AsRenderer();
+
+  // The sim: URI of the camera that renders `frequency_hz` (for messages and comparisons).
+  std::string CameraUri(double frequency_hz, double exposure_s, ImageGeometry geometry) const;
+
+ private:
+  std::string scene_and_keys_;
+  bool signed_output_;
+  std::map<std::pair<long long, long long>, std::unique_ptr<CaptureSource>> cameras_;
+};
+
+}  // namespace transient::v4l2::testing
