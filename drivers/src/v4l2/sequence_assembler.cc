@@ -73,23 +73,29 @@ absl::Status AssemblerOptions::Validate() const {
   return absl::OkStatus();
 }
 
-SequenceAssembler::SequenceAssembler(const AssemblerOptions& options) : options_(options) {}
+SequenceAssembler::SequenceAssembler(const AssemblerOptions& options) : options_(options) {
+  trigger_seen_ = options_.phases;  // no trigger pending
+}
 
 void SequenceAssembler::Reset() {
   if (open_) Drop(DropReason::kAbandoned);
+  trigger_seen_ = options_.phases;
   synced_ = false;
   expect_pause_ = false;
   last_.reset();
 }
 
-void SequenceAssembler::BeginSequence() {
+void SequenceAssembler::BeginSequence(uint32_t first_sequence) {
   if (open_) Drop(DropReason::kAbandoned);
   open_ = true;
   filled_ = 0;
+  first_sequence_ = first_sequence;
+  trigger_seen_ = 0;
 }
 
 void SequenceAssembler::Abandon() {
   if (open_) Drop(DropReason::kAbandoned);
+  trigger_seen_ = options_.phases;
 }
 
 void SequenceAssembler::Drop(DropReason reason) {
@@ -148,9 +154,15 @@ Placement SequenceAssembler::Add(const DequeuedBuffer& buffer) {
 }
 
 Placement SequenceAssembler::AddTriggered(const DequeuedBuffer& buffer, bool continuous) {
-  if (!open_) return Discard();  // no sequence was started: not one of ours
-  if (filled_ > 0 && !continuous) {
-    Drop(DropReason::kSequenceGap);
+  (void)continuous;  // the position comes from the number itself
+  const uint32_t position = buffer.sequence - first_sequence_;  // modulo 2^32, like the driver's
+  const auto phases = static_cast<uint32_t>(options_.phases);
+  // A late frame of an earlier trigger, or one after this trigger's last: not of this sequence.
+  if (position >= phases) return Discard();
+  trigger_seen_ = std::max(trigger_seen_, static_cast<int>(position) + 1);
+  if (!open_) return Discard();  // no sequence was started, or it was dropped
+  if (static_cast<int>(position) != filled_) {
+    Drop(DropReason::kSequenceGap);  // the frames before this one were lost
     return Discard();
   }
   return Place(buffer, filled_);

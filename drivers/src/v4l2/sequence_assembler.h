@@ -2,8 +2,11 @@
 // sequences. Sensors like the MLX7502x deliver one buffer per phase of a sequence and nothing in
 // the buffer says which phase it is (../shared/research/v4l2.md §1.1, §1.4, §5.4), so the
 // position comes from one of three rules:
-//   kTrigger:  the caller starts every sequence (a software trigger) and the next `phases`
-//              buffers are its phases 0..N-1; a buffer when no sequence is open is discarded.
+//   kTrigger:  the caller starts every sequence (a software trigger) and names the driver
+//              sequence number its first frame gets: drivers count frames from 0 at STREAMON,
+//              lost ones included, so with N frames per trigger the k-th trigger's frames are
+//              numbers k*N .. k*N+N-1 (../shared/research/v4l2.md §2.4). A buffer takes the
+//              phase its number gives; one of an earlier trigger (late) or of none is discarded.
 //   kSequence: the driver's sequence number, which counts dropped frames too, from the first
 //              buffer after Reset(): phase = (sequence - first) mod N; a timestamp gap above
 //              `gap_ns` inside a sequence, between consecutive driver sequence numbers, means
@@ -89,8 +92,14 @@ class SequenceAssembler {
   // (kGap); an open sequence is dropped as abandoned.
   void Reset();
 
-  // kTrigger: the caller has just started a sequence. An open one is dropped as abandoned.
-  void BeginSequence();
+  // kTrigger: the caller has just started a sequence whose first frame the driver numbers
+  // `first_sequence`. An open one is dropped as abandoned.
+  void BeginSequence(uint32_t first_sequence);
+  // kTrigger: every frame of the sequence last begun has come, or was counted lost, or the
+  // sequence was abandoned: the caller may trigger the next.
+  bool TriggerDone() const { return trigger_seen_ >= options_.phases; }
+  // kTrigger: how many of its frames have come or were counted lost (0: none yet).
+  int trigger_frames_seen() const { return trigger_seen_; }
 
   // The caller gives up the open sequence (a dequeue timeout); counted as abandoned.
   void Abandon();
@@ -117,7 +126,8 @@ class SequenceAssembler {
   bool open_ = false;     // a sequence is open: its next phase is `filled_`
   bool synced_ = false;   // kSequence: first_sequence_ holds
   bool expect_pause_ = false;  // kGap: a sequence just completed; the next buffer needs a pause
-  uint32_t first_sequence_ = 0;          // kSequence: the driver sequence of a phase 0
+  uint32_t first_sequence_ = 0;          // kSequence / kTrigger: the driver sequence of a phase 0
+  int trigger_seen_ = 0;                 // kTrigger: frames of the last trigger come or lost
   std::optional<DequeuedBuffer> last_;   // the stream's previous buffer, whatever its fate
 };
 

@@ -364,9 +364,8 @@ class V4l2Source final : public CaptureSource {
   bool started_ = false;
   size_t next_ = 0;          // the device sequence being taken
   int64_t cycle_ = 0;
-  bool triggered_ = false;   // mlx7502x: a sequence was triggered and is not all out yet
-  int frames_of_trigger_ = 0;
-  std::optional<uint32_t> last_driver_sequence_;
+  bool triggered_ = false;   // a sequence was triggered and is not all out yet
+  uint32_t next_trigger_sequence_ = 0;  // the driver's number of the next trigger's first frame
   absl::Time last_progress_;
   bool bad_samples_ = false;
   std::vector<std::vector<float>> slots_;
@@ -619,7 +618,7 @@ absl::Status V4l2Source::Start() {
   started_ = true;
   assembler_->Reset();
   triggered_ = false;
-  last_driver_sequence_.reset();
+  next_trigger_sequence_ = 0;  // drivers number frames from 0 at STREAMON
   sequence_base_ = next_sequence_;
   last_progress_ = absl::Now();
   return absl::OkStatus();
@@ -647,9 +646,11 @@ absl::Status V4l2Source::Trigger() {
   if (absl::Status s = controls_device().SetControls({&press, 1}); !s.ok()) {
     return WithContext(uri_, s);
   }
-  assembler_->BeginSequence();
+  // Every trigger makes the sensor take (and the driver number) a whole sequence, lost frames
+  // included: the k-th trigger's frames are numbered from k * N.
+  assembler_->BeginSequence(next_trigger_sequence_);
+  next_trigger_sequence_ += static_cast<uint32_t>(assembler_->options().phases);
   triggered_ = true;
-  frames_of_trigger_ = 0;
   last_progress_ = absl::Now();
   return absl::OkStatus();
 }
@@ -667,7 +668,7 @@ absl::Status V4l2Source::Restart(const std::string& why) {
   }
   assembler_->Reset();
   triggered_ = false;
-  last_driver_sequence_.reset();
+  next_trigger_sequence_ = 0;
   sequence_base_ = next_sequence_;
   last_progress_ = absl::Now();
   bad_samples_ = false;
@@ -676,13 +677,6 @@ absl::Status V4l2Source::Restart(const std::string& why) {
 
 absl::Status V4l2Source::HandleBuffer(const DequeuedFrame& dequeued) {
   const DequeuedBuffer& buffer = dequeued.buffer;
-  if (triggered_) {
-    // The frames of one trigger, lost ones included (the driver's count skips them).
-    const uint32_t lost =
-        last_driver_sequence_.has_value() ? buffer.sequence - *last_driver_sequence_ - 1 : 0;
-    frames_of_trigger_ += 1 + static_cast<int>(std::min<uint32_t>(lost, 1u << 20));
-  }
-  last_driver_sequence_ = buffer.sequence;
   const Placement placement = assembler_->Add(buffer);
   if (placement.phase.has_value()) {
     const int per_buffer = options_.subframes;
@@ -700,7 +694,7 @@ absl::Status V4l2Source::HandleBuffer(const DequeuedFrame& dequeued) {
   }
   // Copied out: the buffer goes back to the driver at once.
   if (absl::Status s = device_.Requeue(dequeued.index); !s.ok()) return WithContext(uri_, s);
-  if (triggered_ && frames_of_trigger_ >= frames_per_sequence_ / options_.subframes) {
+  if (triggered_ && assembler_->TriggerDone()) {
     triggered_ = false;  // all of the trigger's frames are out, whatever became of them
   }
   if (!placement.completes) return absl::OkStatus();
@@ -764,7 +758,15 @@ absl::Status V4l2Source::Next(absl::Duration timeout, RawFrame* frame) {
     const absl::Time watchdog = last_progress_ + options_.watchdog;
     if (now >= watchdog) {
       ++watchdog_timeouts_;
+      const bool partial = triggered_ && assembler_->trigger_frames_seen() > 0;
       assembler_->Abandon();
+      if (partial) {
+        // The trigger's last frames never came (a lost frame shows only in the sequence number
+        // of the next one): the sequence is given up and taken again; the stream runs on.
+        triggered_ = false;
+        last_progress_ = now;
+        continue;
+      }
       if (absl::Status s = Restart(absl::StrCat("no buffer for ",
                                                 absl::FormatDuration(options_.watchdog)));
           !s.ok()) {

@@ -397,7 +397,10 @@ int AnswerStreaming(State& sensor, NodeState& state, unsigned long request,
   if (request == VIDIOC_STREAMON || request == VIDIOC_STREAMOFF) {
     if (state.buffers == 0) return EINVAL;
     state.streaming = request == VIDIOC_STREAMON;
-    if (state.streaming) state.next_sequence = 0;  // drivers count from 0 at each start
+    if (state.streaming) {
+      state.next_sequence = 0;  // drivers count from 0 at each start
+      state.frames_lost_pending = 0;
+    }
     if (!state.streaming) state.queued.clear();
     return 0;
   }

@@ -192,7 +192,7 @@ TEST(SequenceAssembler, PauseAlignmentDropsShortOverlongAndBrokenSequences) {
   EXPECT_EQ(assembler.counters().driver_frames_lost, 1);
 }
 
-TEST(SequenceAssembler, TriggeredSequencesTakeTheBuffersAfterEachTrigger) {
+TEST(SequenceAssembler, TriggeredSequencesTakeTheFramesTheirNumbersGive) {
   SequenceAssembler assembler(Options(Alignment::kTrigger, 3));
   uint32_t seq = 0;
   int64_t t = 0;
@@ -200,28 +200,44 @@ TEST(SequenceAssembler, TriggeredSequencesTakeTheBuffersAfterEachTrigger) {
     t += kFrameNs;
     return assembler.Add(Buffer(seq++, t));
   };
+  EXPECT_TRUE(assembler.TriggerDone());
   EXPECT_FALSE(next().phase.has_value());  // before any trigger: not ours
-  assembler.BeginSequence();
+  assembler.BeginSequence(1);
+  EXPECT_FALSE(assembler.TriggerDone());
   EXPECT_EQ(next().phase, 0);
   EXPECT_EQ(next().phase, 1);
   const Placement last = next();
   EXPECT_EQ(last.phase, 2);
   EXPECT_TRUE(last.completes);
+  EXPECT_TRUE(assembler.TriggerDone());
   EXPECT_FALSE(next().phase.has_value());  // a fourth buffer after a sequence of three
-  assembler.BeginSequence();
+  assembler.BeginSequence(5);
   EXPECT_EQ(next().phase, 0);
+  EXPECT_EQ(assembler.trigger_frames_seen(), 1);
   assembler.Abandon();  // a dequeue timeout
+  EXPECT_TRUE(assembler.TriggerDone());
   EXPECT_FALSE(next().phase.has_value());
-  assembler.BeginSequence();
+  // The next trigger (frames 8..10) while a late frame of the abandoned one (7) comes.
+  assembler.BeginSequence(8);
+  EXPECT_FALSE(next().phase.has_value()) << "frame 7: late, of the abandoned trigger";
+  EXPECT_EQ(assembler.trigger_frames_seen(), 0);
   EXPECT_EQ(next().phase, 0);
-  assembler.BeginSequence();  // a trigger before the last one's buffers came
-  EXPECT_EQ(next().phase, 0);
-  ++seq;  // a lost frame
+  ++seq;  // frame 9 lost: its number shows at frame 10
   EXPECT_FALSE(next().phase.has_value());
+  EXPECT_TRUE(assembler.TriggerDone());
+  // A trigger whose first frame is lost: frame 12 is its phase 1, and the sequence is gone.
+  assembler.BeginSequence(11);
+  ++seq;
+  EXPECT_FALSE(next().phase.has_value());
+  EXPECT_FALSE(next().phase.has_value());
+  EXPECT_TRUE(assembler.TriggerDone());
+  assembler.BeginSequence(14);
+  EXPECT_EQ(next().phase, 0);
+  assembler.BeginSequence(17);  // a trigger before the last one's frames came
   EXPECT_EQ(assembler.counters().sequences, 1);
   EXPECT_EQ(Dropped(assembler, DropReason::kAbandoned), 2);
-  EXPECT_EQ(Dropped(assembler, DropReason::kSequenceGap), 1);
-  EXPECT_EQ(assembler.counters().discarded_buffers, 7);
+  EXPECT_EQ(Dropped(assembler, DropReason::kSequenceGap), 2);
+  EXPECT_EQ(assembler.counters().driver_frames_lost, 2);
 }
 
 TEST(SequenceAssembler, ResetAbandonsTheOpenSequenceAndCountsAfresh) {

@@ -18,6 +18,7 @@
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
+#include "tests/support/subprocess.h"
 #include "transient/client/decoded_image.h"
 #include "transient/drivers/capture_source.h"
 #include "transient/reconstruct/percentile.h"
@@ -248,6 +249,53 @@ TEST_F(V4l2DaemonTest, ARecordingReplaysToTheSameMomentStateBitForBit) {
     ++compared;
   }
   EXPECT_EQ(compared, 4);
+}
+
+// `transient record` from the emulated sensor, as a child process (umockdev's preload library
+// comes with the environment and hands its ioctls to this process's emulated sensor): the file
+// holds the read-back integration time, the frequencies, and the driver's sequence numbers and
+// timestamps, gap included.
+TEST_F(V4l2DaemonTest, TransientRecordKeepsTheReadBackValuesAndTheDriversNumbering) {
+  SimulatedPhases light(kScene, /*signed_output=*/true);
+  EmulatedNode node;
+  node.formats = {{kFourccY12P, "12-bit Greyscale (MIPI Packed)"}};
+  node.controls = testing::Mlx7502xControls();
+  node.controls[5].step = 8;  // integration time: 500 us reads back as 501 us
+  node.sensor = {64, 48};
+  node.renderer = light.AsRenderer();
+  sensor_.AddNode(node);
+  // The stream's fifth sequence (harmonic 2 of cycle 1) loses its last frame: the source gives
+  // it up when the watchdog (timeout_ms) passes, and takes it again.
+  sensor_.InjectFault("video0", {.sequence = 4, .kind = SequenceFault::kLostFrame, .frame = 3});
+  ScratchDirectory dir;
+  const std::string path = dir.File("record.h5");
+  const ::transient::testing::ProcessResult result = ::transient::testing::RunProcess(
+      {TRANSIENT_BINARY, "record", "--source", absl::StrCat(kV4l2, "&timeout_ms=200"), "--out",
+       path, "--frames", "2"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  absl::StatusOr<std::unique_ptr<CaptureSource>> replay =
+      OpenSource(absl::StrCat("replay:", path, "?pace=fast"));
+  ASSERT_THAT(replay.status(), IsOk());
+  EXPECT_DOUBLE_EQ((*replay)->schedule().options().exposure_s, 501e-6);
+  ASSERT_THAT((*replay)->Start(), IsOk());
+  std::vector<RawFrame> frames(24);
+  for (RawFrame& frame : frames) ASSERT_THAT((*replay)->Next(absl::Seconds(5), &frame), IsOk());
+  for (size_t i = 1; i < frames.size(); ++i) {
+    const ExposureConfig& c = frames[i].config;
+    EXPECT_DOUBLE_EQ(c.exposure_s, 501e-6);
+    EXPECT_DOUBLE_EQ(c.frequency_hz, static_cast<double>(i / 4 % 3 + 1) * 20e6);
+    const uint64_t step = c.sequence - frames[i - 1].config.sequence;
+    const double pause = c.timestamp_s - frames[i - 1].config.timestamp_s;
+    if (i == 16) {
+      // Across the dropped sequence: its three frames and the lost one.
+      EXPECT_EQ(step, 5u) << i;
+    } else {
+      EXPECT_EQ(step, 1u) << i;
+    }
+    // 1.5 ms between the frames of a sequence, 21.5 ms across the sensor's idle time.
+    EXPECT_NEAR(pause, i % 4 == 0 ? (i == 16 ? 2 * 21.5e-3 + 3 * 1.5e-3 : 21.5e-3) : 1.5e-3, 1e-6)
+        << i;
+  }
 }
 
 int64_t StatsCounter(const v1::Stats& stats, const std::string& name) {

@@ -14,6 +14,7 @@
 
 #include "tests/drivers/v4l2/emulated_tof_sensor.h"
 #include "tests/support/status_matchers.h"
+#include "tests/support/subprocess.h"
 #include "transient/drivers/capture_devices.h"
 #include "v4l2/frame_unpacker.h"
 
@@ -118,6 +119,18 @@ TEST_F(V4l2DeviceTest, DevicesListsTheNodeWithItsFormatsAndToFControls) {
                           HasSubstr("no ToF controls on this node (0 controls)")));
 }
 
+// The transient program itself, a child process: umockdev's preload library (inherited with the
+// environment) hands its ioctls to this process's emulated sensor.
+TEST_F(V4l2DeviceTest, TheTransientProgramListsTheEmulatedNode) {
+  sensor_.AddNode(Mlx75027());
+  const ::transient::testing::ProcessResult result =
+      ::transient::testing::RunProcess({TRANSIENT_BINARY, "devices"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_THAT(result.out, AllOf(HasSubstr("v4l2:/dev/video0  MLX75027 ToF\n"),
+                                HasSubstr("raw formats we read: Y12P, Y12"),
+                                HasSubstr("\"TOF Phase Sequence\": u16[<=8] 0..315 step 45")));
+}
+
 TEST_F(V4l2DeviceTest, NodesThatAreNotCaptureDevicesSayWhy) {
   EmulatedNode metadata = Mlx75027();
   metadata.device_caps = V4L2_CAP_META_CAPTURE | V4L2_CAP_STREAMING;
@@ -155,18 +168,16 @@ EmulatedNode SmallSensor() {
   return node;
 }
 
-// Four rows of eight 12-bit samples, value 100 * row + column, packed as MIPI RAW12 with
-// `padding` bytes after each row (the kernel's Y12P layout, research §2.2).
+// Four rows of eight 12-bit samples, value 100 * row + column + offset, packed as MIPI RAW12
+// with `padding` bytes of 0xee after each row (the kernel's Y12P layout, research §2.2).
 std::vector<uint8_t> PackedFrame(size_t padding, int offset = 0) {
-  std::vector<uint8_t> bytes;
+  std::vector<int32_t> samples;
   for (int y = 0; y < 4; ++y) {
-    for (int x = 0; x < 8; x += 2) {
-      const int p0 = 100 * y + x + offset, p1 = 100 * y + x + 1 + offset;
-      bytes.push_back(static_cast<uint8_t>(p0 >> 4));
-      bytes.push_back(static_cast<uint8_t>(p1 >> 4));
-      bytes.push_back(static_cast<uint8_t>((p1 & 0xf) << 4 | (p0 & 0xf)));
-    }
-    bytes.insert(bytes.end(), padding, 0xee);
+    for (int x = 0; x < 8; ++x) samples.push_back(100 * y + x + offset);
+  }
+  std::vector<uint8_t> bytes = testing::PackSamples(kFourccY12P, {8, 4}, 12 + padding, 12, samples);
+  for (size_t y = 0; y < 4; ++y) {
+    std::fill_n(bytes.begin() + static_cast<std::ptrdiff_t>(y * (12 + padding) + 12), padding, 0xee);
   }
   return bytes;
 }

@@ -261,6 +261,7 @@ TEST_F(V4l2SourceTest, SuperframesCarryAllPhasesInOneBuffer) {
 
 struct FaultCase {
   SequenceFault::Kind kind;
+  int frame;  // of the sequence's four
   const char* counter;
 };
 
@@ -275,8 +276,8 @@ TEST_P(V4l2SourceFaultTest, TheBrokenSequenceIsDroppedCountedAndTakenAgain) {
   ASSERT_NE(source, nullptr);
   const int64_t first = sensor_.SequencesStarted("video0");
   // The second sequence of the stream (harmonic 2 of cycle 0) goes wrong at its third frame.
-  sensor_.InjectFault("video0", {.sequence = first + 1, .kind = GetParam().kind, .frame = 2,
-                                 .value = 77'000'000});
+  sensor_.InjectFault("video0", {.sequence = first + 1, .kind = GetParam().kind,
+                                 .frame = GetParam().frame, .value = 77'000'000});
   const std::vector<RawFrame> frames = Take(*source, 24);
   for (size_t i = 0; i < frames.size(); ++i) {
     const ExposureConfig& c = frames[i].config;
@@ -295,6 +296,9 @@ TEST_P(V4l2SourceFaultTest, TheBrokenSequenceIsDroppedCountedAndTakenAgain) {
     EXPECT_EQ(Counter(*source, "restarts"), 1);
   }
   if (GetParam().kind == SequenceFault::kLostFrame) {
+    // Lost inside the sequence, the next frame's number shows it; lost last, only the
+    // watchdog does (the sequence is abandoned and taken again without a restart).
+    EXPECT_EQ(Counter(*source, "restarts"), 0);
     EXPECT_EQ(Counter(*source, "driver_frames_lost"), 1);
   }
   if (GetParam().kind == SequenceFault::kControlChanged) {
@@ -306,11 +310,12 @@ TEST_P(V4l2SourceFaultTest, TheBrokenSequenceIsDroppedCountedAndTakenAgain) {
 
 INSTANTIATE_TEST_SUITE_P(
     Faults, V4l2SourceFaultTest,
-    ::testing::Values(FaultCase{SequenceFault::kErrorFlag, "sequences_dropped_error_flag"},
-                      FaultCase{SequenceFault::kShortFrame, "sequences_dropped_wrong_size"},
-                      FaultCase{SequenceFault::kLostFrame, "sequences_dropped_sequence_gap"},
-                      FaultCase{SequenceFault::kStall, "watchdog_timeouts"},
-                      FaultCase{SequenceFault::kControlChanged,
+    ::testing::Values(FaultCase{SequenceFault::kErrorFlag, 2, "sequences_dropped_error_flag"},
+                      FaultCase{SequenceFault::kShortFrame, 2, "sequences_dropped_wrong_size"},
+                      FaultCase{SequenceFault::kLostFrame, 2, "sequences_dropped_sequence_gap"},
+                      FaultCase{SequenceFault::kLostFrame, 3, "sequences_dropped_abandoned"},
+                      FaultCase{SequenceFault::kStall, 0, "watchdog_timeouts"},
+                      FaultCase{SequenceFault::kControlChanged, 2,
                                 "sequences_dropped_control_changed"}),
     [](const ::testing::TestParamInfo<FaultCase>& info) {
       std::string name = info.param.counter;
