@@ -13,10 +13,12 @@
 #include <deque>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <utility>
 #include <stdexcept>
 
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
 #include "v4l2/frame_unpacker.h"
 
 namespace transient::v4l2::testing {
@@ -42,6 +44,8 @@ struct EmulatedTofSensor::State {
     int64_t clock_ns = 1'000'000'000;
     uint32_t frames_lost_pending = 0;
     State* owner = nullptr;
+    // realtime: when and with which timestamp the previous frame was delivered.
+    std::optional<std::pair<int64_t, int64_t>> last_delivery;
   };
   // The handler runs on umockdev's thread, the test on its own: one lock for all nodes (a
   // trigger on a subdevice starts frames on its video node).
@@ -415,10 +419,16 @@ int AnswerStreaming(State& sensor, NodeState& state, unsigned long request,
       if (state.unplugged) return ENODEV;
     }
     if (state.queued.empty() || state.frames.empty()) return EAGAIN;
+    if (state.behaviour.realtime && state.last_delivery.has_value()) {
+      const int64_t now = absl::ToUnixNanos(absl::Now());
+      const auto [wall, timestamp] = *state.last_delivery;
+      if (now - wall < state.frames.front().timestamp_ns - timestamp) return EAGAIN;
+    }
     const int index = state.queued.front();
     state.queued.pop_front();
     EmulatedFrame frame = std::move(state.frames.front());
     state.frames.pop_front();
+    state.last_delivery.emplace(absl::ToUnixNanos(absl::Now()), frame.timestamp_ns);
     const size_t length = std::min(frame.bytes.size(), state.image_bytes);
     const int fd = open(state.file.c_str(), O_WRONLY | O_CLOEXEC);
     if (fd < 0) return EIO;

@@ -90,6 +90,9 @@ struct EmulatedNode {
   // sequence, and `idle_ns` more before a sequence starts.
   int64_t frame_ns = 1'500'000;
   int64_t idle_ns = 20'000'000;
+  // Deliver at the sensor's pace: a frame no sooner after the previous one than their
+  // timestamps differ (else as fast as they are asked for).
+  bool realtime = false;
   uint32_t refuse_control = 0;  // S_EXT_CTRLS of this control ID fails with EINVAL
 };
 

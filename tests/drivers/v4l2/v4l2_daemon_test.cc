@@ -58,6 +58,7 @@ class V4l2DaemonTest : public ::testing::Test {
     node.controls = testing::Mlx7502xControls();
     node.sensor = {64, 48};
     node.renderer = light.AsRenderer();
+    node.realtime = true;  // a sensor's pace: a cycle of three sequences every 78 ms
     sensor_.AddNode(node);
   }
 

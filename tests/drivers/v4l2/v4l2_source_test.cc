@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "tests/support/status_matchers.h"
 #include "transient/drivers/capture_source.h"
 #include "v4l2/frame_unpacker.h"
+#include "v4l2/v4l2_device.h"
 
 namespace transient::v4l2 {
 namespace {
@@ -133,6 +135,21 @@ TEST_F(V4l2SourceTest, Mlx7502xSetsEverySequenceAndStampsTheReadBackValues) {
   EXPECT_EQ(Counter(*source, "sequences"), 6);
   EXPECT_EQ(Counter(*source, "buffers"), 24);
   EXPECT_EQ(Counter(*source, "discarded_buffers"), 0);
+}
+
+TEST_F(V4l2SourceTest, TheZerothMomentProxyIsASequenceAtTheSensorsLowestFrequency) {
+  sensor_.AddNode(Mlx75027(Labelled));
+  std::unique_ptr<CaptureSource> source = OpenStarted(absl::StrCat(kMlxUri, "&zeroth=proxy"));
+  ASSERT_NE(source, nullptr);
+  EXPECT_EQ(source->schedule().raw_frames_per_frame(), 16);
+  EXPECT_DOUBLE_EQ(source->schedule().options().proxy_frequency_hz, 4e6) << "the control's minimum";
+  const std::vector<RawFrame> frames = Take(*source, 16);
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const ExposureConfig& c = frames[i].config;
+    EXPECT_EQ(c.harmonic, static_cast<int>(i / 4)) << i;
+    EXPECT_DOUBLE_EQ(c.frequency_hz, i < 4 ? 4e6 : static_cast<double>(i / 4) * 20e6) << i;
+    EXPECT_THAT(source->schedule().IndexOf(c).status(), IsOk()) << i;
+  }
 }
 
 TEST_F(V4l2SourceTest, AFrequencyTheDriverRoundsAwayFromJTimesFIsAnError) {
@@ -383,6 +400,38 @@ TEST_F(V4l2SourceTest, RenderedFramesCarryTheScenesCorrelation) {
       EXPECT_EQ(frames[static_cast<size_t>(k)].pixels[p], expected.pixels[p] - 2048.0f) << k;
     }
   }
+}
+
+// Against a real node, on a machine that has one (for example `modprobe vivid`, which streams
+// Y12 and Y16): TRANSIENT_TEST_V4L2_DEVICE=/dev/videoN, and optionally TRANSIENT_TEST_V4L2_URI
+// for the source to open (default: the generic profile, m = 1, Y16 at 640 x 480). Skipped, with
+// this message, where unset: no machine of the project's CI has V4L2 hardware or modules.
+TEST(V4l2RealDevice, OpensTheNodeAndTakesOneCycle) {
+  const char* device = std::getenv("TRANSIENT_TEST_V4L2_DEVICE");
+  if (device == nullptr || *device == '\0') {
+    GTEST_SKIP() << "set TRANSIENT_TEST_V4L2_DEVICE=/dev/videoN to test a real node";
+  }
+  absl::StatusOr<V4l2Device> node = V4l2Device::Open(device);
+  ASSERT_THAT(node.status(), IsOk());
+  absl::StatusOr<Capabilities> caps = node->QueryCapabilities();
+  ASSERT_THAT(caps.status(), IsOk());
+  EXPECT_TRUE(caps->capture() && caps->streaming()) << caps->card;
+  const char* uri = std::getenv("TRANSIENT_TEST_V4L2_URI");
+  const std::string source_uri =
+      uri != nullptr && *uri != '\0' ? std::string(uri)
+                                     : absl::StrCat("v4l2:", device, "?fmt=Y16&m=1&f=20e6");
+  node = absl::UnavailableError("closed");  // the source opens the node itself
+  absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSource(source_uri);
+  ASSERT_THAT(source.status(), IsOk());
+  ASSERT_THAT((*source)->Start(), IsOk());
+  const int frames = (*source)->schedule().raw_frames_per_frame();
+  RawFrame frame;
+  for (int i = 0; i < frames; ++i) {
+    ASSERT_THAT((*source)->Next(absl::Seconds(5), &frame), IsOk()) << i;
+    EXPECT_EQ(frame.pixels.size(),
+              static_cast<size_t>((*source)->camera().geometry.pixel_count()));
+  }
+  EXPECT_THAT((*source)->Stop(), IsOk());
 }
 
 }  // namespace
