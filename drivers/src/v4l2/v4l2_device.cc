@@ -360,6 +360,39 @@ absl::StatusOr<std::vector<int64_t>> V4l2Device::GetControl(const ControlDescrip
   return values;
 }
 
+absl::Status V4l2Device::SubscribeControlEvents(std::span<const uint32_t> ids) {
+  for (uint32_t id : ids) {
+    v4l2_event_subscription subscription{};
+    subscription.type = V4L2_EVENT_CTRL;
+    subscription.id = id;
+    if (Ioctl(VIDIOC_SUBSCRIBE_EVENT, &subscription) != 0) {
+      const int error = errno;
+      if (error == ENOTTY || error == EINVAL) {
+        return absl::UnimplementedError(
+            absl::StrFormat("%s: no control events for 0x%08x (%s)", path_, id, std::strerror(error)));
+      }
+      return IoctlError("VIDIOC_SUBSCRIBE_EVENT", error);
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::vector<uint32_t>> V4l2Device::ChangedControls() {
+  std::vector<uint32_t> changed;
+  for (int n = 0; n < kMaxEnumerated; ++n) {
+    v4l2_event event{};
+    if (Ioctl(VIDIOC_DQEVENT, &event) != 0) {
+      if (errno == ENOENT) return changed;  // none pending
+      return IoctlError("VIDIOC_DQEVENT", errno);
+    }
+    if (event.type == V4L2_EVENT_CTRL && (event.u.ctrl.changes & V4L2_EVENT_CTRL_CH_VALUE) != 0) {
+      changed.push_back(event.id);
+    }
+    if (event.pending == 0) return changed;
+  }
+  return changed;
+}
+
 absl::StatusOr<NegotiatedFormat> V4l2Device::SetFormat(uint32_t fourcc, ImageGeometry geometry) {
   v4l2_format format{};
   format.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;

@@ -113,6 +113,14 @@ class V4l2Device {
   // VIDIOC_G_EXT_CTRLS of one control: its current elements (a dynamic array's current length).
   absl::StatusOr<std::vector<int64_t>> GetControl(const ControlDescription& control);
 
+  // VIDIOC_SUBSCRIBE_EVENT to value changes of `ids` (V4L2_EVENT_CTRL) made by other programs
+  // (the kernel does not tell a file handle of its own changes). Unimplemented when the driver
+  // has no control events.
+  absl::Status SubscribeControlEvents(std::span<const uint32_t> ids);
+  // VIDIOC_DQEVENT until none is pending: the controls whose value changed, in order. Empty
+  // when none did.
+  absl::StatusOr<std::vector<uint32_t>> ChangedControls();
+
   // VIDIOC_S_FMT for single-planar capture. A driver that grants another pixel format or size
   // is refused: InvalidArgument naming what was asked and what was granted.
   absl::StatusOr<NegotiatedFormat> SetFormat(uint32_t fourcc, ImageGeometry geometry);

@@ -368,6 +368,7 @@ class V4l2Source final : public CaptureSource {
   uint32_t next_trigger_sequence_ = 0;  // the driver's number of the next trigger's first frame
   absl::Time last_progress_;
   bool bad_samples_ = false;
+  bool control_events_ = false;  // subscribed to the ToF controls' change events
   std::vector<std::vector<float>> slots_;
   std::vector<DequeuedBuffer> slot_buffers_;
   std::deque<RawFrame> ready_;
@@ -378,7 +379,9 @@ class V4l2Source final : public CaptureSource {
 
   // Counters beyond the assembler's.
   int64_t restarts_ = 0, watchdog_timeouts_ = 0, dequeue_errors_ = 0;
-  int64_t dropped_control_changed_ = 0, dropped_bad_samples_ = 0;
+  int64_t dropped_control_changed_ = 0;  // whole, but the read-back differed at their end
+  int64_t dropped_bad_samples_ = 0;
+  int64_t abandoned_for_control_ = 0;  // of the assembler's abandoned: control changes
 };
 
 absl::StatusOr<std::unique_ptr<CaptureSource>> V4l2Source::Open(absl::string_view uri) {
@@ -578,6 +581,12 @@ absl::Status V4l2Source::PlanMlx(const std::vector<ControlDescription>& controls
     }
   }
   options_.schedule.exposure_s = *exposure_s;
+  // Another program's change of a ToF control shows as an event, where the driver sends them;
+  // the read-back at the end of each sequence catches it where it does not.
+  const uint32_t watched[] = {tof_.phases.id, tof_.frequency.id, tof_.integration.id};
+  const absl::Status subscribed = controls_device().SubscribeControlEvents(watched);
+  if (!subscribed.ok() && !absl::IsUnimplemented(subscribed)) return WithContext(uri_, subscribed);
+  control_events_ = subscribed.ok();
   return absl::OkStatus();
 }
 
@@ -677,6 +686,16 @@ absl::Status V4l2Source::Restart(const std::string& why) {
 
 absl::Status V4l2Source::HandleBuffer(const DequeuedFrame& dequeued) {
   const DequeuedBuffer& buffer = dequeued.buffer;
+  if (control_events_ && triggered_) {
+    absl::StatusOr<std::vector<uint32_t>> changed = controls_device().ChangedControls();
+    if (!changed.ok()) return WithContext(uri_, changed.status());
+    if (!changed->empty()) {
+      // Someone else set a control during the sequence: give it up now; its remaining frames
+      // come as late ones of an abandoned trigger, and the next trigger sets the controls again.
+      assembler_->Abandon();
+      ++abandoned_for_control_;
+    }
+  }
   const Placement placement = assembler_->Add(buffer);
   if (placement.phase.has_value()) {
     const int per_buffer = options_.subframes;
@@ -802,15 +821,21 @@ std::vector<SourceCounter> V4l2Source::Counters() const {
        "whole phase sequences delivered as raw frames"},
   };
   for (int r = 0; r < kDropReasons; ++r) {
+    // A sequence given up for a control change counts there, not as abandoned.
+    const int64_t dropped = a.dropped[r] - (static_cast<DropReason>(r) == DropReason::kAbandoned
+                                                ? abandoned_for_control_
+                                                : 0);
     counters.push_back({absl::StrCat("sequences_dropped_",
                                      absl::StrReplaceAll(DropReasonName(static_cast<DropReason>(r)),
                                                          {{" ", "_"}})),
-                        a.dropped[r],
+                        dropped,
                         absl::StrCat("sequences dropped whole: ",
                                      DropReasonName(static_cast<DropReason>(r)))});
   }
-  counters.push_back({"sequences_dropped_control_changed", dropped_control_changed_,
-                      "sequences dropped: a control read back other than set at their end"});
+  counters.push_back({"sequences_dropped_control_changed",
+                      dropped_control_changed_ + abandoned_for_control_,
+                      "sequences dropped: another program set a ToF control (an event, or the "
+                      "read-back at their end)"});
   counters.push_back({"sequences_dropped_bad_samples", dropped_bad_samples_,
                       "sequences dropped: a buffer's samples did not fit the format"});
   counters.push_back({"discarded_buffers", a.discarded_buffers,

@@ -44,6 +44,8 @@ struct EmulatedTofSensor::State {
     int64_t clock_ns = 1'000'000'000;
     uint32_t frames_lost_pending = 0;
     State* owner = nullptr;
+    std::vector<uint32_t> subscribed;    // V4L2_EVENT_CTRL subscriptions (one file handle)
+    std::deque<std::pair<uint32_t, int64_t>> pending_events;  // (control, new value)
     // realtime: when and with which timestamp the previous frame was delivered.
     std::optional<std::pair<int64_t, int64_t>> last_delivery;
   };
@@ -171,6 +173,15 @@ int64_t TriggerMode(State& state, NodeState& controls) {
   return controls.values[mode->id].empty() ? 0 : controls.values[mode->id][0];
 }
 
+// Another program set control `id` of `node`: its value, and an event where one is subscribed
+// (the kernel tells every other file handle that subscribed, research §2.5).
+void ChangedBySomeoneElse(NodeState& node, uint32_t id, std::vector<int64_t> values) {
+  if (std::find(node.subscribed.begin(), node.subscribed.end(), id) != node.subscribed.end()) {
+    node.pending_events.emplace_back(id, values.empty() ? 0 : values[0]);
+  }
+  node.values[id] = std::move(values);
+}
+
 // Starts a sequence on `video` with the current values of `controls`: renders its frames (or
 // what the sequence's fault makes of them) into the delivery queue.
 void StartSequence(State& state, NodeState& video, NodeState& controls) {
@@ -219,7 +230,7 @@ void StartSequence(State& state, NodeState& video, NodeState& controls) {
   for (const SequenceFault& fault : faults) {
     if (fault.kind != SequenceFault::kControlChanged) continue;
     if (const ControlDescription* f = ControlByName(controls, kFrequencyName)) {
-      controls.values[f->id] = {fault.value};
+      ChangedBySomeoneElse(controls, f->id, {fault.value});
     }
   }
 }
@@ -515,6 +526,30 @@ int Answer(State& sensor, NodeState& state, UMockdevIoctlClient* client) {
     query->dims[0] = array ? found->elements : 0;
     return 0;
   }
+  if (request == VIDIOC_SUBSCRIBE_EVENT) {
+    auto* subscription = Argument<v4l2_event_subscription>(client);
+    if (subscription == nullptr) return EFAULT;
+    if (!node.events) return ENOTTY;
+    if (subscription->type != V4L2_EVENT_CTRL || ControlById(state, subscription->id) == nullptr) {
+      return EINVAL;
+    }
+    state.subscribed.push_back(subscription->id);
+    return 0;
+  }
+  if (request == VIDIOC_DQEVENT) {
+    auto* event = Argument<v4l2_event>(client);
+    if (event == nullptr) return EFAULT;
+    if (state.pending_events.empty()) return ENOENT;
+    const auto [id, value] = state.pending_events.front();
+    state.pending_events.pop_front();
+    *event = {};
+    event->type = V4L2_EVENT_CTRL;
+    event->id = id;
+    event->u.ctrl.changes = V4L2_EVENT_CTRL_CH_VALUE;
+    event->u.ctrl.value = static_cast<int32_t>(value);
+    event->pending = static_cast<uint32_t>(state.pending_events.size());
+    return 0;
+  }
   if (request == VIDIOC_G_EXT_CTRLS || request == VIDIOC_S_EXT_CTRLS) {
     return AnswerControls(sensor, state, request, client);
   }
@@ -662,7 +697,7 @@ void EmulatedTofSensor::Replug(const std::string& name) {
 void EmulatedTofSensor::SetControl(const std::string& name, uint32_t id,
                                    std::vector<int64_t> values) {
   std::lock_guard<std::mutex> lock(state_->mutex);
-  state_->Find(name).values[id] = std::move(values);
+  ChangedBySomeoneElse(state_->Find(name), id, std::move(values));
 }
 
 std::vector<int64_t> EmulatedTofSensor::Control(const std::string& name, uint32_t id) {

@@ -15,10 +15,12 @@
 //    controls' current values: one sequence per press of the Camera Trigger button in
 //    internal-trigger mode (mode 1), or one after another in continuous mode (0). Each frame's
 //    samples are packed into the negotiated container as the kernel's pixfmt pages describe;
+//  * control events: VIDIOC_SUBSCRIBE_EVENT / VIDIOC_DQEVENT of V4L2_EVENT_CTRL for changes made
+//    by someone else (SetControl, the kControlChanged fault), not by the code under test;
 //  * faults by sequence: an error-flagged, short or lost buffer, a stall, an unplug, a control
 //    changed by someone else while the sequence is read out.
-// Not emulated (umockdev cannot, research §3.1): poll readiness (always ready), fstat of the
-// fd, DMABUF, and events (the source reads its controls back instead).
+// Not emulated (umockdev cannot, research §3.1): poll readiness (always ready, so POLLPRI does
+// not announce events: the code under test asks with DQEVENT), fstat of the fd, DMABUF.
 #pragma once
 
 #include <cstddef>
@@ -59,7 +61,8 @@ struct SequenceFault {
     kLostFrame,         // frame `frame` is never delivered (the driver's sequence skips it)
     kStall,             // the sequence never comes
     kUnplug,            // the device goes away instead of this sequence
-    kControlChanged,    // someone sets TOF Frequency Modulation to `value` during the sequence
+    kControlChanged,    // someone sets TOF Frequency Modulation to `value` after the sequence's
+                        // frames are taken, before they are all read
   };
   int64_t sequence = 0;
   Kind kind = kErrorFlag;
@@ -94,6 +97,7 @@ struct EmulatedNode {
   // timestamps differ (else as fast as they are asked for).
   bool realtime = false;
   uint32_t refuse_control = 0;  // S_EXT_CTRLS of this control ID fails with EINVAL
+  bool events = true;           // false: VIDIOC_SUBSCRIBE_EVENT fails with ENOTTY
 };
 
 // One frame the sensor delivers at the next VIDIOC_DQBUF.
@@ -135,7 +139,8 @@ class EmulatedTofSensor {
   void Unplug(const std::string& name);
   // It comes back as a fresh device: no format, buffers or stream; controls kept.
   void Replug(const std::string& name);
-  // Someone else sets a control of the node (as another program's VIDIOC_S_EXT_CTRLS would).
+  // Someone else sets a control of the node (as another program's VIDIOC_S_EXT_CTRLS would,
+  // with an event to the subscribers).
   void SetControl(const std::string& name, uint32_t id, std::vector<int64_t> values);
   std::vector<int64_t> Control(const std::string& name, uint32_t id);
   // Sequences the node's renderer has started.

@@ -280,6 +280,7 @@ struct FaultCase {
   SequenceFault::Kind kind;
   int frame;  // of the sequence's four
   const char* counter;
+  bool events = true;  // the driver sends control events (else the read-back must catch it)
 };
 
 class V4l2SourceFaultTest : public V4l2SourceTest,
@@ -288,7 +289,9 @@ class V4l2SourceFaultTest : public V4l2SourceTest,
 // The sequence with the fault is dropped whole and taken again: the frames that come are all of
 // whole sequences, each exactly once per cycle, and the counter says what happened.
 TEST_P(V4l2SourceFaultTest, TheBrokenSequenceIsDroppedCountedAndTakenAgain) {
-  sensor_.AddNode(Mlx75027(Labelled));
+  EmulatedNode node = Mlx75027(Labelled);
+  node.events = GetParam().events;
+  sensor_.AddNode(node);
   std::unique_ptr<CaptureSource> source = OpenStarted(kMlxUri);
   ASSERT_NE(source, nullptr);
   const int64_t first = sensor_.SequencesStarted("video0");
@@ -319,7 +322,9 @@ TEST_P(V4l2SourceFaultTest, TheBrokenSequenceIsDroppedCountedAndTakenAgain) {
     EXPECT_EQ(Counter(*source, "driver_frames_lost"), 1);
   }
   if (GetParam().kind == SequenceFault::kControlChanged) {
-    // Set again before the retake.
+    // Noticed at once by its event (abandoned, not a whole sequence), or by the read-back at
+    // its end (whole, then dropped); set again before the retake either way.
+    EXPECT_EQ(Counter(*source, "sequences_dropped_abandoned"), 0);
     EXPECT_EQ(sensor_.Control("video0", kCidTofFrequencyModulation),
               std::vector<int64_t>{60'000'000});
   }
@@ -333,9 +338,11 @@ INSTANTIATE_TEST_SUITE_P(
                       FaultCase{SequenceFault::kLostFrame, 3, "sequences_dropped_abandoned"},
                       FaultCase{SequenceFault::kStall, 0, "watchdog_timeouts"},
                       FaultCase{SequenceFault::kControlChanged, 2,
-                                "sequences_dropped_control_changed"}),
+                                "sequences_dropped_control_changed"},
+                      FaultCase{SequenceFault::kControlChanged, 2,
+                                "sequences_dropped_control_changed", /*events=*/false}),
     [](const ::testing::TestParamInfo<FaultCase>& info) {
-      std::string name = info.param.counter;
+      std::string name = absl::StrCat(info.param.counter, info.param.events ? "" : "_readback");
       name.erase(std::remove(name.begin(), name.end(), '_'), name.end());
       return name;
     });
