@@ -38,4 +38,22 @@ absl::StatusOr<SourceUri> ParseSourceUri(absl::string_view uri) {
   return parsed;
 }
 
+std::string FormatSourceUri(const SourceUri& uri) {
+  std::string text = absl::StrCat(uri.scheme, ":", uri.target);
+  for (size_t i = 0; i < uri.keys.size(); ++i) {
+    absl::StrAppend(&text, i == 0 ? "?" : "&", uri.keys[i].first, "=", uri.keys[i].second);
+  }
+  return text;
+}
+
+void SetSourceUriKey(SourceUri* uri, const std::string& key, const std::string& value) {
+  for (auto& [k, v] : uri->keys) {
+    if (k == key) {
+      v = value;
+      return;
+    }
+  }
+  uri->keys.emplace_back(key, value);
+}
+
 }  // namespace transient::internal

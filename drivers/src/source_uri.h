@@ -22,4 +22,10 @@ struct SourceUri {
 // key=value"), or a key given twice ("key m given twice").
 absl::StatusOr<SourceUri> ParseSourceUri(absl::string_view uri);
 
+// "scheme:target?key=value&..." again, the keys in their order; ParseSourceUri's inverse.
+std::string FormatSourceUri(const SourceUri& uri);
+
+// `uri` with `key` set to `value`: replaced where given, else appended.
+void SetSourceUriKey(SourceUri* uri, const std::string& key, const std::string& value);
+
 }  // namespace transient::internal

@@ -68,6 +68,18 @@ TEST(SourceUri, SplitsSchemeTargetAndKeysInOrder) {
   EXPECT_TRUE(bare->keys.empty());
 }
 
+TEST(SourceUri, FormatsBackWithAKeySetOrAdded) {
+  absl::StatusOr<internal::SourceUri> uri = internal::ParseSourceUri("v4l2:/dev/video0?m=4&f=2e7");
+  ASSERT_THAT(uri.status(), IsOk());
+  EXPECT_EQ(internal::FormatSourceUri(*uri), "v4l2:/dev/video0?m=4&f=2e7");
+  internal::SetSourceUriKey(&*uri, "m", "2");
+  internal::SetSourceUriKey(&*uri, "takes", "3");
+  EXPECT_EQ(internal::FormatSourceUri(*uri), "v4l2:/dev/video0?m=2&f=2e7&takes=3");
+  absl::StatusOr<internal::SourceUri> bare = internal::ParseSourceUri("replay:/a/b.h5");
+  ASSERT_THAT(bare.status(), IsOk());
+  EXPECT_EQ(internal::FormatSourceUri(*bare), "replay:/a/b.h5");
+}
+
 TEST(SourceUri, MalformedParametersAndRepeatedKeysAreRefusedByName) {
   EXPECT_THAT(internal::ParseSourceUri("no scheme").status(),
               StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("is not a source URI")));

@@ -295,9 +295,26 @@ absl::StatusOr<ControlDescription> FindControl(const std::vector<ControlDescript
       found.empty() ? " and no controls at all" : absl::StrCat("; it has ", absl::StrJoin(found, ", "))));
 }
 
+// A control's name as a URI key spells a space as %20 (or any byte as %XX).
+std::string PercentDecoded(const std::string& text) {
+  std::string out;
+  for (size_t i = 0; i < text.size(); ++i) {
+    int byte = 0;
+    if (text[i] == '%' && i + 2 < text.size() &&
+        absl::SimpleHexAtoi(absl::string_view(text).substr(i + 1, 2), &byte)) {
+      out.push_back(static_cast<char>(byte));
+      i += 2;
+    } else {
+      out.push_back(text[i]);
+    }
+  }
+  return out;
+}
+
 absl::StatusOr<ControlDescription> FindPassthrough(const std::vector<ControlDescription>& controls,
-                                                   const std::string& key,
+                                                   const std::string& encoded_key,
                                                    const std::string& node) {
+  const std::string key = PercentDecoded(encoded_key);
   uint32_t id = 0;
   if (absl::StartsWith(key, "0x") && absl::SimpleHexAtoi(key.substr(2), &id)) {
     for (const ControlDescription& c : controls) {
@@ -855,6 +872,15 @@ absl::StatusOr<std::unique_ptr<CaptureSource>> OpenV4l2Source(absl::string_view 
   return V4l2Source::Open(uri);
 }
 
+absl::StatusOr<std::string> V4l2UriWithTakes(absl::string_view uri, int takes) {
+  absl::StatusOr<internal::SourceUri> parsed = internal::ParseSourceUri(uri);
+  if (!parsed.ok()) return parsed.status();
+  internal::SetSourceUriKey(&*parsed, "takes", absl::StrCat(takes));
+  std::string changed = internal::FormatSourceUri(*parsed);
+  if (absl::StatusOr<Options> options = ParseUri(changed); !options.ok()) return options.status();
+  return changed;
+}
+
 }  // namespace transient::v4l2
 
 namespace transient::internal {
@@ -865,8 +891,9 @@ const SourceScheme kV4l2Scheme = {
     .syntax = "v4l2:/dev/videoN?profile=generic|mlx7502x&key=value&...",
     .description = "a raw-phase ToF sensor through V4L2 (transient devices lists the nodes)",
     .keys = v4l2::kV4l2Keys,
-    .capabilities = {},
+    .capabilities = {.adjustable_takes = true},
     .open = v4l2::OpenV4l2Source,
+    .with_takes = v4l2::V4l2UriWithTakes,
 };
 
 }  // namespace transient::internal

@@ -18,6 +18,7 @@
 #include "tests/drivers/v4l2/simulated_phases.h"
 #include "tests/support/status_matchers.h"
 #include "transient/drivers/capture_source.h"
+#include "transient/drivers/source_registry.h"
 #include "v4l2/frame_unpacker.h"
 #include "v4l2/v4l2_device.h"
 
@@ -184,6 +185,32 @@ TEST_F(V4l2SourceTest, ControlsUnderOtherIdsOnASubdeviceAreFoundByName) {
   const std::vector<RawFrame> frames = Take(*source, 12);
   EXPECT_DOUBLE_EQ(frames[11].config.frequency_hz, 60e6);
   EXPECT_EQ(sensor_.Control("v4l-subdev0", 0x00981ab1), std::vector<int64_t>{60'000'000});
+}
+
+TEST_F(V4l2SourceTest, VendorControlsAreSetByNameOrIdBeforeStreaming) {
+  sensor_.AddNode(Mlx75027(Labelled));
+  std::unique_ptr<CaptureSource> source =
+      OpenStarted(absl::StrCat(kMlxUri, "&ctrl.output%20mode=2"));
+  ASSERT_NE(source, nullptr);
+  EXPECT_EQ(sensor_.Control("video0", 0x00981ad0), std::vector<int64_t>{2});
+  source.reset();
+  source = OpenStarted(absl::StrCat(kMlxUri, "&ctrl.0x00981ad0=3"));
+  ASSERT_NE(source, nullptr);
+  EXPECT_EQ(sensor_.Control("video0", 0x00981ad0), std::vector<int64_t>{3});
+  // A menu value the driver does not have is refused, naming the control.
+  EXPECT_THAT(OpenSource(absl::StrCat(kMlxUri, "&ctrl.0x00981ad0=9")).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("'Output Mode' = 9")));
+}
+
+TEST_F(V4l2SourceTest, TheDaemonCanChangeTheTakesInTheUri) {
+  absl::StatusOr<std::string> uri = SourceUriWithTakes(kMlxUri, 4);
+  ASSERT_THAT(uri.status(), IsOk());
+  EXPECT_EQ(*uri, absl::StrCat(kMlxUri, "&takes=4"));
+  absl::StatusOr<std::string> again = SourceUriWithTakes(*uri, 2);
+  ASSERT_THAT(again.status(), IsOk());
+  EXPECT_EQ(*again, absl::StrCat(kMlxUri, "&takes=2"));
+  EXPECT_THAT(SourceUriWithTakes(kMlxUri, 0).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("takes = '0'")));
 }
 
 TEST_F(V4l2SourceTest, ARefusedControlIsNamedWithItsValue) {
