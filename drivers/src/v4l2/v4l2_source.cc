@@ -356,6 +356,8 @@ class V4l2Source final : public CaptureSource {
   V4l2Device& controls_device() { return subdev_.has_value() ? *subdev_ : device_; }
   absl::Status Configure();
   absl::Status PlanMlx(const std::vector<ControlDescription>& controls);
+  // The trigger controls, and the trigger mode set to internal.
+  absl::Status FindTrigger(const std::vector<ControlDescription>& controls);
   void PlanGeneric();
   // Sets a sequence's controls and reads them back into `read_back`.
   absl::Status Program(const std::vector<ControlValue>& program,
@@ -440,6 +442,10 @@ absl::Status V4l2Source::Configure() {
     if (absl::Status s = PlanMlx(*controls); !s.ok()) return s;
   } else {
     PlanGeneric();
+    if (options_.assembly.alignment == Alignment::kTrigger) {
+      // A sensor that runs its own program, one cycle per press of its trigger.
+      if (absl::Status s = FindTrigger(*controls); !s.ok()) return s;
+    }
   }
   absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(options_.schedule);
   if (!schedule.ok()) return WithContext(uri_, schedule.status());
@@ -516,6 +522,21 @@ void V4l2Source::PlanGeneric() {
   sequences_ = {std::move(cycle)};
 }
 
+absl::Status V4l2Source::FindTrigger(const std::vector<ControlDescription>& controls) {
+  const std::string node = controls_device().path();
+  absl::StatusOr<ControlDescription> trigger =
+      FindControl(controls, kCidCameraTrigger, "Camera Trigger", node);
+  if (!trigger.ok()) return WithContext(uri_, trigger.status());
+  absl::StatusOr<ControlDescription> mode =
+      FindControl(controls, kCidCameraTriggerMode, "Camera Trigger Mode", node);
+  if (!mode.ok()) return WithContext(uri_, mode.status());
+  tof_.trigger = *trigger;
+  tof_.trigger_mode = *mode;
+  // Internal trigger: the sensor takes one sequence per press of the trigger button.
+  const ControlValue internal{&tof_.trigger_mode, {1}};
+  return WithContext(uri_, controls_device().SetControls({&internal, 1}));
+}
+
 absl::Status V4l2Source::PlanMlx(const std::vector<ControlDescription>& controls) {
   const std::string node = controls_device().path();
   struct Wanted {
@@ -527,10 +548,7 @@ absl::Status V4l2Source::PlanMlx(const std::vector<ControlDescription>& controls
                           Wanted{&tof_.frequency, kCidTofFrequencyModulation,
                                  "TOF Frequency Modulation"},
                           Wanted{&tof_.integration, kCidTofTimeIntegration,
-                                 "TOF Time Integration"},
-                          Wanted{&tof_.trigger, kCidCameraTrigger, "Camera Trigger"},
-                          Wanted{&tof_.trigger_mode, kCidCameraTriggerMode,
-                                 "Camera Trigger Mode"}}) {
+                                 "TOF Time Integration"}}) {
     absl::StatusOr<ControlDescription> found = FindControl(controls, w.id, w.name, node);
     if (!found.ok()) return WithContext(uri_, found.status());
     *w.out = *found;
@@ -538,11 +556,7 @@ absl::Status V4l2Source::PlanMlx(const std::vector<ControlDescription>& controls
   if (!options_.proxy_given) {
     options_.schedule.proxy_frequency_hz = static_cast<double>(tof_.frequency.minimum);
   }
-  // Internal trigger: the sensor takes one sequence per press of the trigger button.
-  const ControlValue mode{&tof_.trigger_mode, {1}};
-  if (absl::Status s = controls_device().SetControls({&mode, 1}); !s.ok()) {
-    return WithContext(uri_, s);
-  }
+  if (absl::Status s = FindTrigger(controls); !s.ok()) return s;
   const auto n = static_cast<int64_t>(options_.phases_deg.size());
   const int64_t integration_us = std::llround(options_.schedule.exposure_s * 1e6);
   std::optional<double> exposure_s;
@@ -629,7 +643,10 @@ SourceCapabilities V4l2Source::capabilities() const {
     c.min_exposure_s = static_cast<double>(tof_.integration.minimum) * 1e-6;
     c.max_exposure_s = static_cast<double>(tof_.integration.maximum) * 1e-6;
   } else {
-    c.min_frequency_hz = c.max_frequency_hz = 0.0;
+    // What the URI says the sensor runs.
+    const std::vector<std::pair<int, double>> frequencies = SequenceFrequencies(options_.schedule);
+    c.min_frequency_hz = frequencies.front().second;
+    c.max_frequency_hz = frequencies.back().second;
     c.min_exposure_s = c.max_exposure_s = options_.schedule.exposure_s;
   }
   return c;
@@ -660,7 +677,9 @@ absl::Status V4l2Source::Stop() {
 absl::Status V4l2Source::Trigger() {
   DeviceSequence& sequence = sequences_[next_];
   std::vector<std::vector<int64_t>> read_back;
-  if (absl::Status s = Program(sequence.program, &read_back); !s.ok()) return s;
+  if (!sequence.program.empty()) {
+    if (absl::Status s = Program(sequence.program, &read_back); !s.ok()) return s;
+  }
   if (read_back != sequence.read_back) {
     // The driver no longer sets what it set when the source opened: not the schedule.
     return absl::FailedPreconditionError(absl::StrCat(
@@ -767,7 +786,9 @@ void V4l2Source::Emit() {
     frame.config = sequence.frames[k];
     frame.config.cycle = cycle_;
     const DequeuedBuffer& buffer = slot_buffers_[k];
-    frame.config.sequence = sequence_base_ + buffer.sequence;
+    // A superframe's phase images share their buffer's number: numbered apart within it.
+    const auto per_buffer = static_cast<uint64_t>(options_.subframes);
+    frame.config.sequence = sequence_base_ + buffer.sequence * per_buffer + k % per_buffer;
     if (!first_timestamp_ns_.has_value()) first_timestamp_ns_ = buffer.timestamp_ns;
     frame.config.timestamp_s = static_cast<double>(buffer.timestamp_ns - *first_timestamp_ns_) * 1e-9;
     frame.geometry = options_.geometry;

@@ -280,6 +280,32 @@ TEST_F(V4l2SourceTest, GenericProfileAlignsByThePauseBetweenSequences) {
   ExpectGenericAlignment(sensor_, "gap");
 }
 
+TEST_F(V4l2SourceTest, GenericProfileCanTriggerEachCycleWhereTheSensorHasATrigger) {
+  sensor_.AddNode(Mlx75027(Labelled));
+  sensor_.SetControl("video0", kCidTofPhaseSequence, {0, 90, 180, 270});
+  std::unique_ptr<CaptureSource> source =
+      OpenStarted("v4l2:/dev/video0?fmt=Y12&width=32&height=24&f=40e6&m=1&align=trigger");
+  ASSERT_NE(source, nullptr);
+  EXPECT_EQ(sensor_.Control("video0", kCidCameraTriggerMode), std::vector<int64_t>{1});
+  const std::vector<RawFrame> frames = Take(*source, 8);
+  for (size_t i = 0; i < frames.size(); ++i) {
+    EXPECT_EQ(static_cast<int>(frames[i].pixels[0]), 100 * static_cast<int>(i / 4 + 1) +
+                                                         static_cast<int>(i % 4))
+        << i;
+  }
+  EXPECT_EQ(sensor_.Control("video0", kCidTofFrequencyModulation), std::vector<int64_t>{40'000'000})
+      << "the generic profile sets no ToF control (40 MHz is the driver's default)";
+  // A node without a trigger cannot be triggered: the message says what is missing.
+  EmulatedNode plain = Mlx75027(Labelled);
+  plain.name = "video1";
+  plain.controls.clear();
+  sensor_.AddNode(plain);
+  EXPECT_THAT(OpenSource("v4l2:/dev/video1?fmt=Y12&width=32&height=24&m=1&align=trigger").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       AllOf(HasSubstr("has no control 'Camera Trigger'"),
+                             HasSubstr("no controls at all"))));
+}
+
 TEST_F(V4l2SourceTest, SuperframesCarryAllPhasesInOneBuffer) {
   EmulatedNode node = Mlx75027(nullptr);
   node.formats = {{kFourccY16, "16-bit Greyscale"}};
