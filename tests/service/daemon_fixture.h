@@ -4,9 +4,12 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <algorithm>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
@@ -84,5 +87,68 @@ class Daemon {
   std::unique_ptr<Pipeline> pipeline_;
   std::unique_ptr<TransientServer> server_;
 };
+
+// Streams MOMENT_STATE from `daemon`, starts a recording of `max_frames` transient frames into
+// `path` once the first frame has come, and keeps the live frames with images by capture time
+// until the recording has ended by itself (and a few frames more, so that every recorded cycle
+// has been published). The raw frames recorded; 0, with a test failure, when it went wrong.
+inline uint64_t RecordWhileStreaming(Daemon& daemon, const std::string& path, int max_frames,
+                                     std::map<double, v1::Frame>* live) {
+  grpc::ClientContext context;
+  context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(60)));
+  auto reader = daemon.Stub()->StreamFrames(&context, Request({v1::MOMENT_STATE}));
+  v1::Frame frame;
+  uint64_t recorded = 0;
+  if (!reader->Read(&frame)) {
+    ADD_FAILURE() << "no frame before the recording";
+  } else {
+    grpc::ClientContext start_context;
+    v1::StartRecordingRequest start;
+    start.set_path(path);
+    start.set_max_frames(max_frames);
+    v1::Recording recording;
+    const grpc::Status status = daemon.Stub()->StartRecording(&start_context, start, &recording);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    EXPECT_TRUE(recording.active());
+    while (status.ok() && reader->Read(&frame)) {
+      if (frame.images_size() > 0) (*live)[frame.capture_time_s()] = frame;
+      const v1::Stats stats = daemon.Stats();
+      if (!stats.recording().active() && stats.recording().raw_frames() > 0) {
+        recorded = stats.recording().raw_frames();
+        EXPECT_EQ(stats.recording().error(), "");
+        for (int i = 0; i < 3 && reader->Read(&frame); ++i) {
+          if (frame.images_size() > 0) (*live)[frame.capture_time_s()] = frame;
+        }
+        break;
+      }
+    }
+  }
+  context.TryCancel();
+  (void)reader->Finish();
+  return recorded;
+}
+
+// Each replayed frame with images has the live frame of its capture time, and their images are
+// equal byte for byte. The frames compared.
+inline int ExpectSameAsLive(const std::vector<v1::Frame>& replayed,
+                            const std::map<double, v1::Frame>& live) {
+  int compared = 0;
+  for (const v1::Frame& frame : replayed) {
+    if (frame.images_size() == 0) continue;
+    auto it = live.find(frame.capture_time_s());
+    if (it == live.end()) {
+      ADD_FAILURE() << "no live frame of the replayed capture time " << frame.capture_time_s();
+      continue;
+    }
+    EXPECT_EQ(frame.images_size(), it->second.images_size());
+    for (int i = 0; i < std::min(frame.images_size(), it->second.images_size()); ++i) {
+      EXPECT_EQ(frame.images(i).name(), it->second.images(i).name());
+      EXPECT_EQ(frame.images(i).data(), it->second.images(i).data())
+          << frame.images(i).name() << " of the frame at " << frame.capture_time_s() << " s";
+    }
+    ++compared;
+  }
+  return compared;
+}
 
 }  // namespace transient::service::testing

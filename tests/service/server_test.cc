@@ -46,6 +46,8 @@ constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 
 using ::transient::service::testing::Connect;
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::ExpectSameAsLive;
+using ::transient::service::testing::RecordWhileStreaming;
 using ::transient::service::testing::Request;
 
 // Reads up to `frames` frames with images; returns the status the stream ended with (OK when
@@ -351,37 +353,7 @@ TEST(Server, RecordingThroughTheRpcReplaysToTheSameMomentsBitForBit) {
   uint64_t recorded = 0;
   {
     Daemon daemon(live);
-    auto stub = daemon.Stub();
-    grpc::ClientContext context;
-    context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(60)));
-    auto reader = stub->StreamFrames(&context, Request({v1::MOMENT_STATE}));
-    v1::Frame frame;
-    ASSERT_TRUE(reader->Read(&frame));
-    {
-      grpc::ClientContext start_context;
-      v1::StartRecordingRequest start;
-      start.set_path(path);
-      start.set_max_frames(5);
-      v1::Recording recording;
-      grpc::Status status = daemon.Stub()->StartRecording(&start_context, start, &recording);
-      ASSERT_TRUE(status.ok()) << status.error_message();
-      EXPECT_TRUE(recording.active());
-    }
-    while (reader->Read(&frame)) {
-      if (frame.images_size() > 0) live_frames[frame.capture_time_s()] = frame;
-      const v1::Stats stats = daemon.Stats();
-      if (!stats.recording().active() && stats.recording().raw_frames() > 0) {
-        recorded = stats.recording().raw_frames();
-        EXPECT_EQ(stats.recording().error(), "");
-        // A few more frames so that the recorded cycles have all been published.
-        for (int i = 0; i < 3 && reader->Read(&frame); ++i) {
-          live_frames[frame.capture_time_s()] = frame;
-        }
-        break;
-      }
-    }
-    context.TryCancel();
-    (void)reader->Finish();
+    recorded = RecordWhileStreaming(daemon, path, 5, &live_frames);
   }
   ASSERT_EQ(recorded, 5u * 14u);
 
@@ -399,19 +371,7 @@ TEST(Server, RecordingThroughTheRpcReplaysToTheSameMomentsBitForBit) {
   daemon.pipeline().Start();
   receiver.join();
   EXPECT_THAT(end, StatusIs(absl::StatusCode::kOutOfRange, HasSubstr("ended")));
-  int compared = 0;
-  for (const v1::Frame& frame : replayed) {
-    if (frame.images_size() == 0) continue;
-    auto it = live_frames.find(frame.capture_time_s());
-    ASSERT_NE(it, live_frames.end()) << "replayed capture time " << frame.capture_time_s();
-    ASSERT_EQ(frame.images_size(), it->second.images_size());
-    for (int i = 0; i < frame.images_size(); ++i) {
-      EXPECT_EQ(frame.images(i).name(), it->second.images(i).name());
-      EXPECT_EQ(frame.images(i).data(), it->second.images(i).data())
-          << frame.images(i).name() << " of the frame at " << frame.capture_time_s() << " s";
-    }
-    ++compared;
-  }
+  const int compared = ExpectSameAsLive(replayed, live_frames);
   EXPECT_GE(compared, 1);
 }
 

@@ -56,10 +56,16 @@ constexpr SourceKey kV4l2Keys[] = {
     {"exposure", "500e-6", "s", "integration time of each phase (mlx7502x: whole microseconds)"},
     {"takes", "1", "", "repetitions of all sequences per transient frame"},
     {"phases", "0,90,180,270", "deg", "the order in which the sensor takes the four buckets"},
+    {"scheme", "four-bucket", "",
+     "four-bucket, or harmonic-cancellation (mlx7502x: each bucket from nphi frames at phase "
+     "steps of 180/(nphi+1) deg with integration times in the scheme's shares, summed)"},
+    {"nphi", "3", "", "harmonic-cancellation: sub-exposures per bucket (with 45 deg steps: 3)"},
     {"align", "trigger (mlx7502x), sequence (generic)", "",
      "buffers to sequences: trigger, sequence (driver sequence numbers) or gap (a pause)"},
     {"gap_ms", "5", "ms", "pause between sequences (align=gap; align=sequence checks with it)"},
-    {"timeout_ms", "1000", "ms", "watchdog: no buffer for this long restarts the stream"},
+    {"timeout_ms", "1000", "ms",
+     "watchdog: no buffer for this long gives the sequence up (some of its frames came) or "
+     "restarts the stream (none did)"},
     {"restart", "3", "", "stream restarts without a whole sequence before the source fails"},
     {"buffers", "8", "", "buffers to request (at least one sequence's)"},
     {"signed", "1 (mlx7502x), 0 (generic)", "", "samples are two's complement (A - B output)"},
@@ -68,7 +74,7 @@ constexpr SourceKey kV4l2Keys[] = {
     {"subframes", "1", "",
      "phase images per buffer, stacked vertically (a superframe sensor); 1 = one per buffer"},
     {"fx", "nominal 60 deg field of view", "px", "focal length x (fy, cx, cy likewise)"},
-    {"ctrl.<name or 0xID>", "", "",
+    {"ctrl.<name or 0xID>", "none", "",
      "a vendor control to set before streaming, e.g. ctrl.Output%20Mode=0 (comma-separated "
      "elements for an array)"},
 };
@@ -205,6 +211,16 @@ absl::StatusOr<Options> ParseUri(absl::string_view uri) {
                         "(four-bucket sampling; other steps are not supported yet)");
       }
       o.phases_deg = *phases;
+    } else if (key == "scheme") {
+      absl::StatusOr<SamplingScheme> scheme = ParseSamplingScheme(value);
+      if (!scheme.ok() || *scheme == SamplingScheme::kArccos) {
+        return BadValue(uri, key, value,
+                        "four-bucket or harmonic-cancellation (arccos sampling shifts the phase "
+                        "within one exposure, which these sensors cannot)");
+      }
+      o.schedule.sampling = *scheme;
+    } else if (key == "nphi") {
+      status = integer(&o.schedule.phase_steps, 1, 64);
     } else if (key == "align") {
       if (absl::Status s = ParseAlignment(value, &o.assembly.alignment); !s.ok()) {
         return BadValue(uri, key, value, "trigger, sequence or gap");
@@ -253,11 +269,12 @@ absl::StatusOr<Options> ParseUri(absl::string_view uri) {
     o.schedule.proxy_frequency_hz = 900e3;
   }
   if (absl::Status s = o.sample.Validate(); !s.ok()) return WithContext(uri, s);
-  const int per_sequence = static_cast<int>(o.phases_deg.size());
-  if (per_sequence % o.subframes != 0 && o.profile == Profile::kMlx7502x) {
+  if (o.schedule.sampling == SamplingScheme::kFourBucket) {
+    o.schedule.phase_steps = 1;
+  } else if (!mlx) {
     return absl::InvalidArgumentError(absl::StrCat(
-        uri, ": subframes = ", o.subframes, " does not divide a sequence of ", per_sequence,
-        " phases"));
+        uri, ": scheme = harmonic-cancellation needs profile mlx7502x: the source builds it by "
+             "setting the phases and integration times of each sub-exposure"));
   }
   if (mlx && o.assembly.alignment != Alignment::kTrigger) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -330,10 +347,17 @@ absl::StatusOr<ControlDescription> FindPassthrough(const std::vector<ControlDesc
 }
 
 // One sensor sequence of the cycle: buckets at one frequency, and the frames it stamps.
+// Harmonic cancellation built from captures: the n_phi sub-exposures of a bucket are frames of
+// their own, at the bucket's phase plus theta_k and with the share w_k of the exposure time;
+// their sum is the exposure the scheme defines (thesis §8.3.1), each frame first scaled by the
+// time it should have had over the time the driver set (the signal grows with the time).
 struct DeviceSequence {
   std::vector<ControlValue> program;     // mlx7502x: what to set before the trigger
   std::vector<std::vector<int64_t>> read_back;  // and what the driver must read back after it
-  std::vector<ExposureConfig> frames;    // the stamps of its frames (cycle/sequence/time unset)
+  std::vector<ExposureConfig> frames;    // the stamps of its raw frames (cycle/sequence/time
+                                         // unset), one per `subexposures` buffers
+  int subexposures = 1;                  // buffers summed into one raw frame
+  std::vector<double> scale;             // per buffer: wanted / set integration time
 };
 
 class V4l2Source final : public CaptureSource {
@@ -451,7 +475,8 @@ absl::Status V4l2Source::Configure() {
   if (!schedule.ok()) return WithContext(uri_, schedule.status());
   schedule_.emplace(*std::move(schedule));
 
-  frames_per_sequence_ = static_cast<int>(sequences_.front().frames.size());
+  frames_per_sequence_ = static_cast<int>(sequences_.front().frames.size()) *
+                         sequences_.front().subexposures;
   if (frames_per_sequence_ % options_.subframes != 0) {
     return absl::InvalidArgumentError(absl::StrCat(uri_, ": subframes = ", options_.subframes,
                                                    " does not divide a sequence of ",
@@ -557,58 +582,109 @@ absl::Status V4l2Source::PlanMlx(const std::vector<ControlDescription>& controls
     options_.schedule.proxy_frequency_hz = static_cast<double>(tof_.frequency.minimum);
   }
   if (absl::Status s = FindTrigger(controls); !s.ok()) return s;
-  const auto n = static_cast<int64_t>(options_.phases_deg.size());
-  const int64_t integration_us = std::llround(options_.schedule.exposure_s * 1e6);
+  // The sub-exposures of every bucket (one at 0 with the whole time for four-bucket), in
+  // degrees on the phase control's grid, and the buckets that fit one sequence of the sensor.
+  absl::StatusOr<AcquisitionSchedule> split = AcquisitionSchedule::Create(options_.schedule);
+  if (!split.ok()) return WithContext(uri_, split.status());
+  struct Sub {
+    int64_t phase_deg;
+    double share;
+  };
+  std::vector<Sub> subs;
+  for (const SubExposure& sub : split->sub_exposures()) {
+    const double degrees = sub.phase_shift_rad * 180.0 / std::numbers::pi;
+    const int64_t rounded = std::llround(degrees);
+    const auto step = static_cast<int64_t>(std::max<uint64_t>(tof_.phases.step, 1));
+    if (std::abs(degrees - static_cast<double>(rounded)) > 1e-9 || rounded % step != 0) {
+      return absl::InvalidArgumentError(absl::StrFormat(
+          "%s: nphi = %d needs phase steps of %.6g deg; the sensor's phase control has steps of "
+          "%d deg (%s)",
+          uri_, options_.schedule.phase_steps, degrees, step, DescribeControlRange(tof_.phases)));
+    }
+    subs.push_back({rounded, sub.weight});
+  }
+  const int per_bucket = static_cast<int>(subs.size());
+  const int capacity = static_cast<int>(std::max<uint32_t>(tof_.phases.elements, 1));
+  int buckets_per_sequence = 4;  // a divisor of the four buckets, so every sequence is as long
+  while (buckets_per_sequence * per_bucket > capacity) buckets_per_sequence /= 2;
+  if (buckets_per_sequence == 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        uri_, ": nphi = ", per_bucket, " needs ", per_bucket, " phases in one sequence; '",
+        tof_.phases.name, "' holds ", capacity));
+  }
+  const double total_us = options_.schedule.exposure_s * 1e6;
+  const bool combined = per_bucket > 1;
   std::optional<double> exposure_s;
   sequences_.clear();
   for (int take = 0; take < options_.schedule.takes; ++take) {
     for (const auto& [harmonic, frequency] : SequenceFrequencies(options_.schedule)) {
-      DeviceSequence sequence;
-      sequence.program = {
-          {&tof_.frequency, {std::llround(frequency)}},
-          {&tof_.phases, options_.phases_deg},
-          {&tof_.integration, std::vector<int64_t>(static_cast<size_t>(n), integration_us)},
-      };
-      if (absl::Status s = Program(sequence.program, &sequence.read_back); !s.ok()) return s;
-      const auto& read_frequency = sequence.read_back[0];
-      const auto& read_phases = sequence.read_back[1];
-      const auto& read_integration = sequence.read_back[2];
-      const double got = read_frequency.empty() ? 0.0 : static_cast<double>(read_frequency[0]);
-      if (std::abs(got - frequency) > kFrequencyTolerance * frequency) {
-        return absl::InvalidArgumentError(absl::StrFormat(
-            "%s: harmonic %d needs %.9g Hz (%s), the driver set 'TOF Frequency Modulation' to "
-            "%.9g Hz: not j*f within a relative %g. Choose f so that every j*f is a frequency "
-            "the sensor sets exactly (%s)",
-            uri_, harmonic,
-            frequency, harmonic == 0 ? "the proxy" : absl::StrCat(harmonic, " x f").c_str(), got,
-            kFrequencyTolerance, DescribeControlRange(tof_.frequency)));
+      for (int first = 0; first < 4; first += buckets_per_sequence) {
+        DeviceSequence sequence;
+        sequence.subexposures = per_bucket;
+        std::vector<int64_t> phases, integration;
+        for (int b = first; b < first + buckets_per_sequence; ++b) {
+          for (const Sub& sub : subs) {
+            phases.push_back((options_.phases_deg[static_cast<size_t>(b)] + sub.phase_deg) % 360);
+            integration.push_back(std::max<int64_t>(std::llround(total_us * sub.share), 1));
+          }
+        }
+        sequence.program = {
+            {&tof_.frequency, {std::llround(frequency)}},
+            {&tof_.phases, phases},
+            {&tof_.integration, integration},
+        };
+        if (absl::Status s = Program(sequence.program, &sequence.read_back); !s.ok()) return s;
+        const auto& read_frequency = sequence.read_back[0];
+        const auto& read_phases = sequence.read_back[1];
+        const auto& read_integration = sequence.read_back[2];
+        const double got = read_frequency.empty() ? 0.0 : static_cast<double>(read_frequency[0]);
+        if (std::abs(got - frequency) > kFrequencyTolerance * frequency) {
+          return absl::InvalidArgumentError(absl::StrFormat(
+              "%s: harmonic %d needs %.9g Hz (%s), the driver set 'TOF Frequency Modulation' to "
+              "%.9g Hz: not j*f within a relative %g. Choose f so that every j*f is a frequency "
+              "the sensor sets exactly (%s)",
+              uri_, harmonic, frequency,
+              harmonic == 0 ? "the proxy" : absl::StrCat(harmonic, " x f").c_str(), got,
+              kFrequencyTolerance, DescribeControlRange(tof_.frequency)));
+        }
+        if (read_phases != phases) {
+          return absl::InvalidArgumentError(absl::StrCat(
+              uri_, ": asked for the phase sequence ", absl::StrJoin(phases, ","),
+              ", the driver set ", absl::StrJoin(read_phases, ",")));
+        }
+        if (read_integration.size() != integration.size() ||
+            std::any_of(read_integration.begin(), read_integration.end(),
+                        [](int64_t t) { return t <= 0; })) {
+          return absl::InvalidArgumentError(absl::StrCat(
+              uri_, ": asked for the integration times ", absl::StrJoin(integration, ","),
+              " us, the driver set ", absl::StrJoin(read_integration, ",")));
+        }
+        for (size_t k = 0; k < read_integration.size(); ++k) {
+          const double wanted = total_us * subs[k % subs.size()].share;
+          sequence.scale.push_back(combined ? wanted / static_cast<double>(read_integration[k])
+                                            : 1.0);
+        }
+        // Four-bucket: the frames say the time the driver set (it rounds to its step), and it
+        // must be one time for the whole schedule. Combined: each frame was scaled to its
+        // share of the exposure, so the sum is one of the exposure asked for.
+        const double frame_exposure_s =
+            combined ? options_.schedule.exposure_s : static_cast<double>(read_integration[0]) * 1e-6;
+        if (!combined &&
+            (std::adjacent_find(read_integration.begin(), read_integration.end(),
+                                std::not_equal_to<>()) != read_integration.end() ||
+             (exposure_s.has_value() && *exposure_s != frame_exposure_s))) {
+          return absl::InvalidArgumentError(absl::StrCat(
+              uri_, ": asked for one integration time of ", integration[0],
+              " us, the driver set ", absl::StrJoin(read_integration, ","),
+              exposure_s.has_value() ? absl::StrCat(" (and ", *exposure_s * 1e6, " before)") : ""));
+        }
+        exposure_s = frame_exposure_s;
+        for (int b = first; b < first + buckets_per_sequence; ++b) {
+          sequence.frames.push_back(Stamp(harmonic, got, options_.phases_deg[static_cast<size_t>(b)],
+                                          frame_exposure_s, take));
+        }
+        sequences_.push_back(std::move(sequence));
       }
-      if (read_phases != options_.phases_deg) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            uri_, ": asked for the phase sequence ", absl::StrJoin(options_.phases_deg, ","),
-            ", the driver set ", absl::StrJoin(read_phases, ",")));
-      }
-      if (read_integration.size() != static_cast<size_t>(n) ||
-          std::adjacent_find(read_integration.begin(), read_integration.end(),
-                             std::not_equal_to<>()) != read_integration.end()) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            uri_, ": asked for ", n, " integration times of ", integration_us,
-            " us, the driver set ", absl::StrJoin(read_integration, ",")));
-      }
-      // The driver rounds the integration time to its step: the frames say what it set.
-      const double read_exposure_s = static_cast<double>(read_integration[0]) * 1e-6;
-      if (exposure_s.has_value() && *exposure_s != read_exposure_s) {
-        return absl::InvalidArgumentError(
-            absl::StrCat(uri_, ": the driver set different integration times for different "
-                               "frequencies (", *exposure_s * 1e6, " and ", read_exposure_s * 1e6,
-                         " us)"));
-      }
-      exposure_s = read_exposure_s;
-      for (int64_t k = 0; k < n; ++k) {
-        sequence.frames.push_back(Stamp(harmonic, got, read_phases[static_cast<size_t>(k)],
-                                        read_exposure_s, take));
-      }
-      sequences_.push_back(std::move(sequence));
     }
   }
   options_.schedule.exposure_s = *exposure_s;
@@ -778,22 +854,45 @@ absl::Status V4l2Source::HandleBuffer(const DequeuedFrame& dequeued) {
 
 void V4l2Source::Emit() {
   const DeviceSequence& sequence = sequences_[next_];
-  const bool saturate_signed = options_.sample.is_signed;
-  const float saturation = static_cast<float>(
-      saturate_signed ? (1 << (options_.sample.bits - 1)) - 1 : (1 << options_.sample.bits) - 1);
-  for (size_t k = 0; k < sequence.frames.size(); ++k) {
+  const float slot_saturation = static_cast<float>(options_.sample.is_signed
+                                                       ? (1 << (options_.sample.bits - 1)) - 1
+                                                       : (1 << options_.sample.bits) - 1);
+  const auto per_buffer = static_cast<uint64_t>(options_.subframes);
+  const size_t n = static_cast<size_t>(sequence.subexposures);
+  for (size_t f = 0; f < sequence.frames.size(); ++f) {
     RawFrame frame;
-    frame.config = sequence.frames[k];
+    frame.config = sequence.frames[f];
     frame.config.cycle = cycle_;
-    const DequeuedBuffer& buffer = slot_buffers_[k];
-    // A superframe's phase images share their buffer's number: numbered apart within it.
-    const auto per_buffer = static_cast<uint64_t>(options_.subframes);
-    frame.config.sequence = sequence_base_ + buffer.sequence * per_buffer + k % per_buffer;
+    // The frame's number and time are its first buffer's; a superframe's phase images share
+    // their buffer's number, so they are numbered apart within it.
+    const size_t first = f * n;
+    const DequeuedBuffer& buffer = slot_buffers_[first];
+    frame.config.sequence = sequence_base_ + buffer.sequence * per_buffer + first % per_buffer;
     if (!first_timestamp_ns_.has_value()) first_timestamp_ns_ = buffer.timestamp_ns;
-    frame.config.timestamp_s = static_cast<double>(buffer.timestamp_ns - *first_timestamp_ns_) * 1e-9;
+    frame.config.timestamp_s =
+        static_cast<double>(buffer.timestamp_ns - *first_timestamp_ns_) * 1e-9;
     frame.geometry = options_.geometry;
-    frame.pixels = slots_[k];
-    frame.saturation_level = saturation;
+    if (n == 1) {
+      frame.pixels = slots_[first];
+      frame.saturation_level = slot_saturation;
+    } else {
+      // The sum of the scaled sub-exposures; saturated where any of them is.
+      float saturation = 0.0f;
+      for (size_t k = 0; k < n; ++k) {
+        saturation += static_cast<float>(sequence.scale[first + k]) * slot_saturation;
+      }
+      frame.pixels.assign(slots_[first].size(), 0.0f);
+      for (size_t k = 0; k < n; ++k) {
+        const auto scale = static_cast<float>(sequence.scale[first + k]);
+        const std::vector<float>& slot = slots_[first + k];
+        for (size_t p = 0; p < slot.size(); ++p) {
+          frame.pixels[p] = slot[p] >= slot_saturation || frame.pixels[p] >= saturation
+                                ? saturation
+                                : frame.pixels[p] + scale * slot[p];
+        }
+      }
+      frame.saturation_level = saturation;
+    }
     next_sequence_ = std::max(next_sequence_, frame.config.sequence + 1);
     ready_.push_back(std::move(frame));
   }

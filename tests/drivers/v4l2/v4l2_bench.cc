@@ -33,7 +33,7 @@ using testing::EmulatedNode;
 using testing::EmulatedTofSensor;
 using testing::ProgrammedSequence;
 
-constexpr char kScene[] = "mirrors?gain_error=0&delay_ns=0&delay_error_ns=0&waveform=sinusoid";
+constexpr char kScene[] = "mirrors?gain_error=0&delay_error_ns=0&waveform=sinusoid";
 
 // Renders each (frequency, phases) once with the simulator, then repeats it.
 class CachedPhases {

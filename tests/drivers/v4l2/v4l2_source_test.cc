@@ -37,7 +37,7 @@ using testing::SimulatedPhases;
 
 constexpr ImageGeometry kSmall = {32, 24};
 constexpr char kScene[] =
-    "mirrors?gain_error=0&delay_ns=0&delay_error_ns=0&waveform=sinusoid&noise=none";
+    "mirrors?gain_error=0&delay_error_ns=0&waveform=sinusoid&noise=none";
 constexpr char kMlxUri[] =
     "v4l2:/dev/video0?profile=mlx7502x&width=32&height=24&f=20e6&m=3&exposure=500e-6"
     "&timeout_ms=300";
@@ -151,6 +151,55 @@ TEST_F(V4l2SourceTest, TheZerothMomentProxyIsASequenceAtTheSensorsLowestFrequenc
     EXPECT_DOUBLE_EQ(c.frequency_hz, i < 4 ? 4e6 : static_cast<double>(i / 4) * 20e6) << i;
     EXPECT_THAT(source->schedule().IndexOf(c).status(), IsOk()) << i;
   }
+}
+
+// Each frame a constant: its integration time in microseconds, so that a sum of frames each
+// scaled by (wanted time / set time) is the wanted total.
+std::vector<std::vector<int32_t>> IntegrationValued(const ProgrammedSequence& sequence,
+                                                    ImageGeometry geometry) {
+  std::vector<std::vector<int32_t>> frames;
+  for (size_t k = 0; k < sequence.phases_deg.size(); ++k) {
+    frames.emplace_back(static_cast<size_t>(geometry.pixel_count()),
+                        static_cast<int32_t>(sequence.integration_us[k]));
+  }
+  return frames;
+}
+
+TEST_F(V4l2SourceTest, HarmonicCancellationSumsSubExposuresAtTheirPhasesAndTimes) {
+  sensor_.AddNode(Mlx75027(IntegrationValued));
+  std::unique_ptr<CaptureSource> source =
+      OpenStarted(absl::StrCat(kMlxUri, "&scheme=harmonic-cancellation&nphi=3"));
+  ASSERT_NE(source, nullptr);
+  const AcquisitionSchedule& schedule = source->schedule();
+  EXPECT_EQ(schedule.options().sampling, SamplingScheme::kHarmonicCancellation);
+  EXPECT_EQ(schedule.raw_frames_per_frame(), 12);  // the buckets; 36 buffers behind them
+  const std::vector<RawFrame> frames = Take(*source, 12);
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const ExposureConfig& c = frames[i].config;
+    EXPECT_EQ(c.harmonic, static_cast<int>(i / 4) + 1) << i;
+    EXPECT_NEAR(c.phase_shift_rad, static_cast<double>(i % 4) * std::numbers::pi / 2, 1e-12) << i;
+    EXPECT_DOUBLE_EQ(c.exposure_s, 500e-6) << i;
+    EXPECT_THAT(schedule.IndexOf(c).status(), IsOk()) << i;
+    // Shares sin(45), sin(90), sin(135) of 500 us: 146.4, 207.1, 146.4 us, set as 146, 207,
+    // 146 us; each frame scaled back to its share before the sum.
+    EXPECT_NEAR(frames[i].pixels[5], 500.0f, 1e-3f) << i;
+  }
+  // Two sequences per harmonic (the phase control holds 8 phases: two buckets of three).
+  EXPECT_EQ(sensor_.Control("video0", kCidTofPhaseSequence),
+            (std::vector<int64_t>{180, 225, 270, 270, 315, 0}));
+  EXPECT_EQ(sensor_.Control("video0", kCidTofTimeIntegration),
+            (std::vector<int64_t>{146, 207, 146, 146, 207, 146}));
+  EXPECT_EQ(Counter(*source, "sequences"), 6);
+  EXPECT_EQ(Counter(*source, "buffers"), 36);
+  // Steps of 180 / (nphi + 1) deg must be on the phase control's 45 deg grid.
+  EXPECT_THAT(OpenSource(absl::StrCat(kMlxUri, "&scheme=harmonic-cancellation&nphi=2")).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       AllOf(HasSubstr("nphi = 2 needs phase steps of 60 deg"),
+                             HasSubstr("steps of 45 deg"))));
+  EXPECT_THAT(OpenSource("v4l2:/dev/video0?scheme=harmonic-cancellation").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("needs profile mlx7502x")));
+  EXPECT_THAT(OpenSource("v4l2:/dev/video0?profile=mlx7502x&scheme=arccos").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("within one exposure")));
 }
 
 TEST_F(V4l2SourceTest, AFrequencyTheDriverRoundsAwayFromJTimesFIsAnError) {
