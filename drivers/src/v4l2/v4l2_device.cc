@@ -328,34 +328,53 @@ absl::Status V4l2Device::SetControls(std::span<const ControlValue> values) {
 }
 
 absl::StatusOr<std::vector<int64_t>> V4l2Device::GetControl(const ControlDescription& control) {
-  v4l2_ext_control c{};
-  c.id = control.id;
-  const size_t element_bytes = ElementBytes(control);
-  std::vector<uint8_t> payload;
-  if (element_bytes > 0) {
-    payload.resize(std::max<uint32_t>(control.elements, 1) * element_bytes);
-    c.size = static_cast<uint32_t>(payload.size());
-    c.ptr = payload.data();
+  const ControlDescription* one[] = {&control};
+  absl::StatusOr<std::vector<std::vector<int64_t>>> values = GetControls(one);
+  if (!values.ok()) return values.status();
+  return std::move(values->front());
+}
+
+absl::StatusOr<std::vector<std::vector<int64_t>>> V4l2Device::GetControls(
+    std::span<const ControlDescription* const> wanted) {
+  std::vector<v4l2_ext_control> controls(wanted.size());
+  std::vector<std::vector<uint8_t>> payloads(wanted.size());
+  for (size_t i = 0; i < wanted.size(); ++i) {
+    controls[i].id = wanted[i]->id;
+    const size_t element_bytes = ElementBytes(*wanted[i]);
+    if (element_bytes > 0) {
+      payloads[i].resize(std::max<uint32_t>(wanted[i]->elements, 1) * element_bytes);
+      controls[i].size = static_cast<uint32_t>(payloads[i].size());
+      controls[i].ptr = payloads[i].data();
+    }
   }
   v4l2_ext_controls request{};
   request.which = V4L2_CTRL_WHICH_CUR_VAL;
-  request.count = 1;
-  request.controls = &c;
+  request.count = static_cast<uint32_t>(controls.size());
+  request.controls = controls.data();
   if (Ioctl(VIDIOC_G_EXT_CTRLS, &request) != 0) {
-    return IoctlError(absl::StrCat("VIDIOC_G_EXT_CTRLS '", control.name, "'").c_str(), errno);
+    const int error = errno;
+    const std::string which = request.error_idx < wanted.size()
+                                  ? absl::StrCat(" '", wanted[request.error_idx]->name, "'")
+                                  : "";
+    return IoctlError(absl::StrCat("VIDIOC_G_EXT_CTRLS", which).c_str(), error);
   }
-  std::vector<int64_t> values;
-  if (element_bytes == 0) {
-    values.push_back(control.type == V4L2_CTRL_TYPE_INTEGER64 ? c.value64 : c.value);
-    return values;
-  }
-  if (c.size > payload.size() || c.size % element_bytes != 0) {
-    return absl::InternalError(absl::StrCat(path_, ": VIDIOC_G_EXT_CTRLS '", control.name,
-                                            "' returned ", c.size, " bytes for at most ",
-                                            payload.size()));
-  }
-  for (size_t e = 0; e < c.size / element_bytes; ++e) {
-    values.push_back(ReadElement(payload, element_bytes, e));
+  std::vector<std::vector<int64_t>> values(wanted.size());
+  for (size_t i = 0; i < wanted.size(); ++i) {
+    const ControlDescription& control = *wanted[i];
+    const v4l2_ext_control& c = controls[i];
+    const size_t element_bytes = ElementBytes(control);
+    if (element_bytes == 0) {
+      values[i].push_back(control.type == V4L2_CTRL_TYPE_INTEGER64 ? c.value64 : c.value);
+      continue;
+    }
+    if (c.size > payloads[i].size() || c.size % element_bytes != 0) {
+      return absl::InternalError(absl::StrCat(path_, ": VIDIOC_G_EXT_CTRLS '", control.name,
+                                              "' returned ", c.size, " bytes for at most ",
+                                              payloads[i].size()));
+    }
+    for (size_t e = 0; e < c.size / element_bytes; ++e) {
+      values[i].push_back(ReadElement(payloads[i], element_bytes, e));
+    }
   }
   return values;
 }

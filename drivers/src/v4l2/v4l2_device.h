@@ -112,6 +112,9 @@ class V4l2Device {
   absl::Status SetControls(std::span<const ControlValue> values);
   // VIDIOC_G_EXT_CTRLS of one control: its current elements (a dynamic array's current length).
   absl::StatusOr<std::vector<int64_t>> GetControl(const ControlDescription& control);
+  // VIDIOC_G_EXT_CTRLS of several controls in one call: their elements, in order.
+  absl::StatusOr<std::vector<std::vector<int64_t>>> GetControls(
+      std::span<const ControlDescription* const> controls);
 
   // VIDIOC_SUBSCRIBE_EVENT to value changes of `ids` (V4L2_EVENT_CTRL) made by other programs
   // (the kernel does not tell a file handle of its own changes). Unimplemented when the driver

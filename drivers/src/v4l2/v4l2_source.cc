@@ -386,6 +386,9 @@ class V4l2Source final : public CaptureSource {
   // Sets a sequence's controls and reads them back into `read_back`.
   absl::Status Program(const std::vector<ControlValue>& program,
                        std::vector<std::vector<int64_t>>* read_back);
+  // The current values of the controls `program` sets, in one call.
+  absl::StatusOr<std::vector<std::vector<int64_t>>> ReadBack(
+      const std::vector<ControlValue>& program);
   absl::Status Trigger();
   absl::Status Restart(const std::string& why);
   absl::Status HandleBuffer(const DequeuedFrame& dequeued);
@@ -702,13 +705,20 @@ absl::Status V4l2Source::Program(const std::vector<ControlValue>& program,
   if (absl::Status s = controls_device().SetControls(program); !s.ok()) {
     return WithContext(uri_, s);
   }
-  read_back->clear();
-  for (const ControlValue& value : program) {
-    absl::StatusOr<std::vector<int64_t>> got = controls_device().GetControl(*value.control);
-    if (!got.ok()) return WithContext(uri_, got.status());
-    read_back->push_back(*std::move(got));
-  }
+  absl::StatusOr<std::vector<std::vector<int64_t>>> got = ReadBack(program);
+  if (!got.ok()) return got.status();
+  *read_back = *std::move(got);
   return absl::OkStatus();
+}
+
+absl::StatusOr<std::vector<std::vector<int64_t>>> V4l2Source::ReadBack(
+    const std::vector<ControlValue>& program) {
+  // One VIDIOC_G_EXT_CTRLS for all of them.
+  std::vector<const ControlDescription*> controls;
+  for (const ControlValue& value : program) controls.push_back(value.control);
+  absl::StatusOr<std::vector<std::vector<int64_t>>> got = controls_device().GetControls(controls);
+  if (!got.ok()) return WithContext(uri_, got.status());
+  return got;
 }
 
 SourceCapabilities V4l2Source::capabilities() const {
@@ -837,13 +847,9 @@ absl::Status V4l2Source::HandleBuffer(const DequeuedFrame& dequeued) {
   if (options_.profile == Profile::kMlx7502x) {
     // Controls another program set during the sequence: drop it; the next trigger sets them
     // again (Trigger).
-    std::vector<std::vector<int64_t>> now;
-    for (const ControlValue& value : sequences_[next_].program) {
-      absl::StatusOr<std::vector<int64_t>> got = controls_device().GetControl(*value.control);
-      if (!got.ok()) return WithContext(uri_, got.status());
-      now.push_back(*std::move(got));
-    }
-    if (now != sequences_[next_].read_back) {
+    absl::StatusOr<std::vector<std::vector<int64_t>>> now = ReadBack(sequences_[next_].program);
+    if (!now.ok()) return now.status();
+    if (*now != sequences_[next_].read_back) {
       ++dropped_control_changed_;
       return absl::OkStatus();
     }
