@@ -9,6 +9,7 @@
 #include <linux/videodev2.h>
 
 #include <algorithm>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,7 @@ using ::testing::HasSubstr;
 using ::testing::IsEmpty;
 using ::testing::Not;
 using ::transient::testing::IsOk;
+using ::transient::testing::IsOkAndHolds;
 using ::transient::testing::StatusIs;
 using testing::EmulatedNode;
 using testing::EmulatedTofSensor;
@@ -75,6 +77,74 @@ TEST_F(V4l2DeviceTest, CapabilitiesFormatsAndControlsComeFromTheNode) {
   EXPECT_TRUE(IsTofControl(phases));
   EXPECT_FALSE(IsTofControl((*controls)[0]));  // the driver's output mode
   EXPECT_EQ(DescribeControlRange((*controls)[1]), "button");
+}
+
+const ControlDescription& ControlNamed(const std::vector<ControlDescription>& controls,
+                                       const std::string& name) {
+  for (const ControlDescription& c : controls) {
+    if (c.name == name) return c;
+  }
+  throw std::runtime_error("no control " + name);
+}
+
+TEST_F(V4l2DeviceTest, ControlsAreSetAllOrNothingAndReadBackAsTheDriverRoundedThem) {
+  EmulatedNode node = Mlx75027();
+  node.refuse_control = kCidTofTimeIntegration;
+  sensor_.AddNode(node);
+  absl::StatusOr<V4l2Device> device = V4l2Device::Open("/dev/video0");
+  ASSERT_THAT(device.status(), IsOk());
+  absl::StatusOr<std::vector<ControlDescription>> controls = device->EnumerateControls();
+  ASSERT_THAT(controls.status(), IsOk());
+  const ControlDescription& frequency = ControlNamed(*controls, "TOF Frequency Modulation");
+  const ControlDescription& phases = ControlNamed(*controls, "TOF Phase Sequence");
+  const ControlDescription& integration = ControlNamed(*controls, "TOF Time Integration");
+  const ControlDescription& trigger = ControlNamed(*controls, "Camera Trigger");
+  // The core rounds integer elements to the step (1 MHz) and clamps them to the range.
+  const ControlValue set[] = {{&frequency, {23'400'000}}, {&phases, {0, 90, 180, 270}}};
+  ASSERT_THAT(device->SetControls(set), IsOk());
+  const ControlDescription* both[] = {&frequency, &phases};
+  absl::StatusOr<std::vector<std::vector<int64_t>>> got = device->GetControls(both);
+  ASSERT_THAT(got.status(), IsOk());
+  EXPECT_THAT(*got, ElementsAre(ElementsAre(23'000'000), ElementsAre(0, 90, 180, 270)));
+  const ControlValue too_high[] = {{&frequency, {250'000'000}}};
+  ASSERT_THAT(device->SetControls(too_high), IsOk());
+  EXPECT_THAT(device->GetControl(frequency), IsOkAndHolds(ElementsAre(100'000'000)));
+  // All or nothing: the refused integration time leaves the frequency as it was.
+  const ControlValue refused[] = {{&frequency, {40'000'000}}, {&integration, {500, 500}}};
+  EXPECT_THAT(device->SetControls(refused),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       AllOf(HasSubstr("'TOF Time Integration' = 500,500"), HasSubstr("refused"))));
+  EXPECT_THAT(device->GetControl(frequency), IsOkAndHolds(ElementsAre(100'000'000)));
+  // More elements than the array holds never reach the driver; a button cannot be read.
+  const ControlValue nine[] = {{&phases, std::vector<int64_t>(9, 0)}};
+  EXPECT_THAT(device->SetControls(nine),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("holds 1 to 8 elements")));
+  EXPECT_THAT(device->GetControl(trigger).status(),
+              StatusIs(absl::StatusCode::kInternal, HasSubstr("'Camera Trigger'")));
+}
+
+TEST_F(V4l2DeviceTest, ControlEventsTellOfChangesByOthers) {
+  sensor_.AddNode(Mlx75027());
+  absl::StatusOr<V4l2Device> device = V4l2Device::Open("/dev/video0");
+  ASSERT_THAT(device.status(), IsOk());
+  const uint32_t ids[] = {kCidTofFrequencyModulation, kCidTofPhaseSequence};
+  ASSERT_THAT(device->SubscribeControlEvents(ids), IsOk());
+  EXPECT_THAT(device->ChangedControls(), IsOkAndHolds(IsEmpty()));
+  sensor_.SetControl("video0", kCidTofFrequencyModulation, {30'000'000});
+  sensor_.SetControl("video0", kCidTofTimeIntegration, {100});  // not subscribed
+  sensor_.SetControl("video0", kCidTofPhaseSequence, {0, 180});
+  EXPECT_THAT(device->ChangedControls(),
+              IsOkAndHolds(ElementsAre(kCidTofFrequencyModulation, kCidTofPhaseSequence)));
+  EXPECT_THAT(device->ChangedControls(), IsOkAndHolds(IsEmpty()));
+  // A driver without control events says so.
+  EmulatedNode silent = Mlx75027();
+  silent.name = "video1";
+  silent.events = false;
+  sensor_.AddNode(silent);
+  absl::StatusOr<V4l2Device> other = V4l2Device::Open("/dev/video1");
+  ASSERT_THAT(other.status(), IsOk());
+  EXPECT_THAT(other->SubscribeControlEvents(ids),
+              StatusIs(absl::StatusCode::kUnimplemented, HasSubstr("no control events")));
 }
 
 TEST_F(V4l2DeviceTest, ToFControlsUnderOtherIdsAreFoundByName) {
