@@ -42,14 +42,16 @@ struct TofControls {
   ControlDescription phases, frequency, integration, trigger, trigger_mode;
 };
 
+// By ID, else by name; either way of the control's type (an ID of a proposed control may mean
+// another control on another kernel).
 absl::StatusOr<ControlDescription> FindControl(const std::vector<ControlDescription>& controls,
                                                uint32_t id, const std::string& name,
-                                               const std::string& node) {
+                                               uint32_t type, const std::string& node) {
   for (const ControlDescription& c : controls) {
-    if (c.id == id) return c;
+    if (c.id == id && c.type == type) return c;
   }
   for (const ControlDescription& c : controls) {
-    if (absl::EqualsIgnoreCase(c.name, name)) return c;
+    if (absl::EqualsIgnoreCase(c.name, name) && c.type == type) return c;
   }
   std::vector<std::string> found;
   for (const ControlDescription& c : controls) found.push_back(absl::StrCat("'", c.name, "'"));
@@ -301,10 +303,10 @@ void V4l2Source::PlanGeneric() {
 absl::Status V4l2Source::FindTrigger(const std::vector<ControlDescription>& controls) {
   const std::string node = controls_device().path();
   absl::StatusOr<ControlDescription> trigger =
-      FindControl(controls, kCidCameraTrigger, "Camera Trigger", node);
+      FindControl(controls, kCidCameraTrigger, "Camera Trigger", V4L2_CTRL_TYPE_BUTTON, node);
   if (!trigger.ok()) return WithContext(uri_, trigger.status());
   absl::StatusOr<ControlDescription> mode =
-      FindControl(controls, kCidCameraTriggerMode, "Camera Trigger Mode", node);
+      FindControl(controls, kCidCameraTriggerMode, "Camera Trigger Mode", V4L2_CTRL_TYPE_MENU, node);
   if (!mode.ok()) return WithContext(uri_, mode.status());
   tof_.trigger = *trigger;
   tof_.trigger_mode = *mode;
@@ -319,13 +321,15 @@ absl::Status V4l2Source::PlanMlx(const std::vector<ControlDescription>& controls
     ControlDescription* out;
     uint32_t id;
     const char* name;
+    uint32_t type;
   };
-  for (const Wanted& w : {Wanted{&tof_.phases, kCidTofPhaseSequence, "TOF Phase Sequence"},
+  for (const Wanted& w : {Wanted{&tof_.phases, kCidTofPhaseSequence, "TOF Phase Sequence",
+                                 V4L2_CTRL_TYPE_U16},
                           Wanted{&tof_.frequency, kCidTofFrequencyModulation,
-                                 "TOF Frequency Modulation"},
+                                 "TOF Frequency Modulation", V4L2_CTRL_TYPE_U32},
                           Wanted{&tof_.integration, kCidTofTimeIntegration,
-                                 "TOF Time Integration"}}) {
-    absl::StatusOr<ControlDescription> found = FindControl(controls, w.id, w.name, node);
+                                 "TOF Time Integration", V4L2_CTRL_TYPE_U16}}) {
+    absl::StatusOr<ControlDescription> found = FindControl(controls, w.id, w.name, w.type, node);
     if (!found.ok()) return WithContext(uri_, found.status());
     *w.out = *found;
   }
