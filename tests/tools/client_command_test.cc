@@ -332,6 +332,10 @@ TEST(RunClient, ReceivesTheAskedFramesAndWritesTheLastOne) {
   EXPECT_THAT(json, HasSubstr("\"camera\": {\"width\": 32, \"height\": 24}"));
   EXPECT_THAT(json, HasSubstr(absl::StrCat("\"frames_missed\": ", summary->frames_missed, ",")));
   EXPECT_THAT(json, HasSubstr("\"state_changes\": [],"));
+  // The simulator keeps no counters of its own; the daemon was asked.
+  ASSERT_TRUE(summary->source_counters.has_value());
+  EXPECT_THAT(*summary->source_counters, ::testing::IsEmpty());
+  EXPECT_THAT(json, HasSubstr("\"source_counters\": {},"));
   EXPECT_THAT(json, HasSubstr(absl::StrCat("\"latency_ms\": {\"p50\": ",
                                            absl::StrFormat("%.10g", summary->latency.p50_ms),
                                            ", \"p90\": ")));
@@ -343,6 +347,23 @@ TEST(RunClient, ReceivesTheAskedFramesAndWritesTheLastOne) {
 // virtual plane. In front of the whole scene the plane is visible everywhere, behind it hidden
 // wherever the scene has depth, and through the scene partly hidden; the 8-bit picture says the
 // same as the summary.
+// A camera's counters (a V4L2 source's, docs/v4l2.md) in summary.json and the text summary; none
+// known when GetStats failed.
+TEST(ClientSummary, SourceCountersAreAnObjectAndTheNonZeroOnesAreSaid) {
+  ClientSummary summary;
+  summary.source_counters = {{"buffers", 772}, {"sequences_dropped_error_flag", 1},
+                             {"restarts", 0}};
+  EXPECT_THAT(ClientSummaryJson(summary),
+              HasSubstr("\"source_counters\": {\"buffers\": 772, "
+                        "\"sequences_dropped_error_flag\": 1, \"restarts\": 0},"));
+  EXPECT_THAT(FormatClientSummary(summary),
+              HasSubstr("\nsource: buffers 772, sequences_dropped_error_flag 1"));
+  EXPECT_THAT(FormatClientSummary(summary), ::testing::Not(HasSubstr("restarts")));
+  summary.source_counters.reset();
+  EXPECT_THAT(ClientSummaryJson(summary), HasSubstr("\"source_counters\": null,"));
+  EXPECT_THAT(FormatClientSummary(summary), ::testing::Not(HasSubstr("source:")));
+}
+
 TEST(RunClient, ReceivesMomentDepthAndComputesTheOcclusionOfAVirtualPlane) {
   Daemon daemon(kSmallSim);
   ScratchDirectory dir;

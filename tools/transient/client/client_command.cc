@@ -254,6 +254,15 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   summary.corrupt_frames = stream->counts().corrupt;
   summary.state_announcements = stream->counts().announcements;
   summary.frames_missed = stream->counts().missed;
+  // The source's own counters at the end (a camera's dropped sequences); none when the daemon
+  // is gone.
+  if (absl::StatusOr<v1::Stats> stats = daemon->GetStats(); stats.ok()) {
+    std::vector<std::pair<std::string, int64_t>> counters;
+    for (const v1::SourceCounter& c : stats->source_counters()) {
+      counters.emplace_back(c.name(), c.value());
+    }
+    summary.source_counters = std::move(counters);
+  }
   summary.interrupted = interrupted;
   summary.seconds = absl::ToDoubleSeconds((summary.frames > 0 ? last_arrival : absl::Now()) -
                                           opened);

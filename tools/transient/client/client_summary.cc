@@ -2,6 +2,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "tools/transient/client/product_images.h"
 #include "tools/transient/common/json_text.h"
 #include "tools/transient/common/image_writers.h"
@@ -25,6 +26,15 @@ std::string ClientSummaryJson(const ClientSummary& summary) {
                   ", \"p99\": ", JsonNumber(summary.latency.p99_ms),
                   ", \"max\": ", JsonNumber(summary.latency.max_ms), "},\n");
   absl::StrAppend(&json, "  \"frames_missed\": ", summary.frames_missed, ",\n");
+  if (summary.source_counters) {
+    std::vector<std::string> counters;
+    for (const auto& [name, value] : *summary.source_counters) {
+      counters.push_back(absl::StrCat(JsonString(name), ": ", value));
+    }
+    absl::StrAppend(&json, "  \"source_counters\": {", absl::StrJoin(counters, ", "), "},\n");
+  } else {
+    absl::StrAppend(&json, "  \"source_counters\": null,\n");
+  }
   std::vector<std::string> changes;
   for (const ClientStateChange& change : summary.state_changes) {
     changes.push_back(absl::StrCat("{\"after_frames\": ", change.after_frames,
@@ -75,6 +85,13 @@ std::string FormatClientSummary(const ClientSummary& summary) {
   absl::StrAppendFormat(&text, "\nlatency: p50 %.1f ms, p90 %.1f ms, p99 %.1f ms, max %.1f ms",
                         summary.latency.p50_ms, summary.latency.p90_ms, summary.latency.p99_ms,
                         summary.latency.max_ms);
+  if (summary.source_counters) {
+    std::vector<std::string> counters;
+    for (const auto& [name, value] : *summary.source_counters) {
+      if (value != 0) counters.push_back(absl::StrCat(name, " ", value));
+    }
+    if (!counters.empty()) absl::StrAppend(&text, "\nsource: ", absl::StrJoin(counters, ", "));
+  }
   if (summary.moment_depth) {
     const ClientSummary::MomentDepth& m = *summary.moment_depth;
     absl::StrAppendFormat(&text,

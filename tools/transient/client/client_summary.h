@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace transient::tools {
@@ -34,6 +35,9 @@ struct ClientSummary {
   double rate_hz = 0.0;  // (frames - 1) / (last arrival - first arrival); 0 below two frames
   ClientLatency latency = {};
   uint64_t frames_missed = 0;  // sum of Frame.missed: frames the daemon dropped for us
+  // The source's counters (GetStats' source_counters: a camera's buffers, the sequences it
+  // dropped by reason, restarts) after the stream, by name; none known when GetStats failed.
+  std::optional<std::vector<std::pair<std::string, int64_t>>> source_counters = std::nullopt;
   std::vector<double> slice_time_of_flight_ns = {};  // of the last frame's slices
   float slice_scale = 0.0f;       // colour scale of the slice images (value at full colour)
   float cumulative_scale = 0.0f;  // of the cumulative images
