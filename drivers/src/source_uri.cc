@@ -3,6 +3,7 @@
 
 #include <algorithm>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 
@@ -36,6 +37,27 @@ absl::StatusOr<SourceUri> ParseSourceUri(absl::string_view uri) {
     parsed.keys.emplace_back(std::move(key), std::string(pair.substr(equals + 1)));
   }
   return parsed;
+}
+
+absl::Status BadKeyValue(absl::string_view uri, absl::string_view key, absl::string_view value,
+                         absl::string_view expected) {
+  return absl::InvalidArgumentError(
+      absl::StrCat(uri, ": ", key, " = '", value, "'; expected ", expected));
+}
+
+std::string PercentDecoded(absl::string_view text) {
+  std::string out;
+  for (size_t i = 0; i < text.size(); ++i) {
+    int byte = 0;
+    if (text[i] == '%' && i + 2 < text.size() &&
+        absl::SimpleHexAtoi(text.substr(i + 1, 2), &byte)) {
+      out.push_back(static_cast<char>(byte));
+      i += 2;
+    } else {
+      out.push_back(text[i]);
+    }
+  }
+  return out;
 }
 
 std::string FormatSourceUri(const SourceUri& uri) {

@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 
@@ -21,6 +22,15 @@ struct SourceUri {
 // key=value with both sides non-empty ("malformed parameter 'm' in '<uri>'; expected
 // key=value"), or a key given twice ("key m given twice").
 absl::StatusOr<SourceUri> ParseSourceUri(absl::string_view uri);
+
+// InvalidArgument "<uri>: <key> = '<value>'; expected <expected>", the message of a key whose
+// value a scheme does not accept.
+absl::Status BadKeyValue(absl::string_view uri, absl::string_view key, absl::string_view value,
+                         absl::string_view expected);
+
+// `text` with each %XX replaced by its byte (a key or value spelling a space as %20); a % not
+// followed by two hex digits stays.
+std::string PercentDecoded(absl::string_view text);
 
 // "scheme:target?key=value&..." again, the keys in their order; ParseSourceUri's inverse.
 std::string FormatSourceUri(const SourceUri& uri);

@@ -80,6 +80,17 @@ TEST(SourceUri, FormatsBackWithAKeySetOrAdded) {
   EXPECT_EQ(internal::FormatSourceUri(*bare), "replay:/a/b.h5");
 }
 
+TEST(SourceUri, PercentEscapesAreDecodedAndStrayPercentsKept) {
+  EXPECT_EQ(internal::PercentDecoded("Output%20Mode"), "Output Mode");
+  EXPECT_EQ(internal::PercentDecoded("a%2Cb%2c"), "a,b,");
+  EXPECT_EQ(internal::PercentDecoded("100%"), "100%");
+  EXPECT_EQ(internal::PercentDecoded("%2"), "%2");
+  EXPECT_EQ(internal::PercentDecoded("%zz%41"), "%zzA");
+  EXPECT_THAT(internal::BadKeyValue("replay:x.h5?loop=2", "loop", "2", "0 or 1"),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       ::testing::Eq("replay:x.h5?loop=2: loop = '2'; expected 0 or 1")));
+}
+
 TEST(SourceUri, MalformedParametersAndRepeatedKeysAreRefusedByName) {
   EXPECT_THAT(internal::ParseSourceUri("no scheme").status(),
               StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("is not a source URI")));

@@ -26,8 +26,7 @@ absl::StatusOr<ReplayOptions> ParseReplayUri(absl::string_view uri, std::string*
   ReplayOptions options;
   for (const auto& [key, value] : parsed->keys) {
     const auto bad_value = [&, &key = key, &value = value](absl::string_view expected) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(uri, ": ", key, " = '", value, "'; expected ", expected));
+      return internal::BadKeyValue(uri, key, value, expected);
     };
     if (key == "loop") {
       if (value != "0" && value != "1") return bad_value("0 or 1");

@@ -57,12 +57,6 @@ constexpr SourceKey kV4l2Keys[] = {
      "elements for an array)"},
 };
 
-absl::Status BadValue(absl::string_view uri, absl::string_view key, absl::string_view value,
-                      absl::string_view expected) {
-  return absl::InvalidArgumentError(
-      absl::StrCat(uri, ": ", key, " = '", value, "'; expected ", expected));
-}
-
 absl::StatusOr<std::vector<int64_t>> ParseIntegers(absl::string_view text) {
   std::vector<int64_t> values;
   for (absl::string_view part : absl::StrSplit(text, ',')) {
@@ -95,7 +89,7 @@ absl::StatusOr<V4l2Options> ParseV4l2Uri(absl::string_view uri) {
     } else if (value == "mlx7502x") {
       o.profile = Profile::kMlx7502x;
     } else {
-      return BadValue(uri, key, value, "generic or mlx7502x");
+      return internal::BadKeyValue(uri, key, value, "generic or mlx7502x");
     }
   }
   const bool mlx = o.profile == Profile::kMlx7502x;
@@ -112,13 +106,13 @@ absl::StatusOr<V4l2Options> ParseV4l2Uri(absl::string_view uri) {
     const auto number = [&, &key = key, &value = value](double* out,
                                                           absl::string_view expected) {
       if (!absl::SimpleAtod(value, out) || !std::isfinite(*out)) {
-        return BadValue(uri, key, value, expected);
+        return internal::BadKeyValue(uri, key, value, expected);
       }
       return absl::OkStatus();
     };
     const auto integer = [&, &key = key, &value = value](int* out, int low, int high) {
       if (!absl::SimpleAtoi(value, out) || *out < low || *out > high) {
-        return BadValue(uri, key, value, absl::StrCat("an integer in ", low, "..", high));
+        return internal::BadKeyValue(uri, key, value, absl::StrCat("an integer in ", low, "..", high));
       }
       return absl::OkStatus();
     };
@@ -136,7 +130,7 @@ absl::StatusOr<V4l2Options> ParseV4l2Uri(absl::string_view uri) {
           found = true;
         }
       }
-      if (!found) return BadValue(uri, key, value, "Y12, Y12P, Y16, BG12 or pBCC");
+      if (!found) return internal::BadKeyValue(uri, key, value, "Y12, Y12P, Y16, BG12 or pBCC");
       if (o.sample.fourcc == kFourccY16 && o.sample.bits == 12 && !o.sample.is_signed) {
         o.sample.bits = 16;
       }
@@ -150,7 +144,7 @@ absl::StatusOr<V4l2Options> ParseV4l2Uri(absl::string_view uri) {
       status = integer(&o.schedule.order, 1, kMaxOrder);
     } else if (key == "zeroth") {
       absl::StatusOr<ZerothScheme> zeroth = ParseZerothScheme(value);
-      if (!zeroth.ok()) return BadValue(uri, key, value, "estimated or proxy");
+      if (!zeroth.ok()) return internal::BadKeyValue(uri, key, value, "estimated or proxy");
       if (*zeroth == ZerothScheme::kUnmodulatedPair) {
         return absl::InvalidArgumentError(absl::StrCat(
             uri, ": zeroth = pair needs the emitter switched off for one exposure, and no "
@@ -170,7 +164,7 @@ absl::StatusOr<V4l2Options> ParseV4l2Uri(absl::string_view uri) {
       std::vector<int64_t> sorted = phases.ok() ? *phases : std::vector<int64_t>{};
       std::sort(sorted.begin(), sorted.end());
       if (sorted != std::vector<int64_t>{0, 90, 180, 270}) {
-        return BadValue(uri, key, value,
+        return internal::BadKeyValue(uri, key, value,
                         "the four buckets 0,90,180,270 in the order the sensor takes them "
                         "(four-bucket sampling; other steps are not supported yet)");
       }
@@ -178,7 +172,7 @@ absl::StatusOr<V4l2Options> ParseV4l2Uri(absl::string_view uri) {
     } else if (key == "scheme") {
       absl::StatusOr<SamplingScheme> scheme = ParseSamplingScheme(value);
       if (!scheme.ok() || *scheme == SamplingScheme::kArccos) {
-        return BadValue(uri, key, value,
+        return internal::BadKeyValue(uri, key, value,
                         "four-bucket or harmonic-cancellation (arccos sampling shifts the phase "
                         "within one exposure, which these sensors cannot)");
       }
@@ -187,12 +181,12 @@ absl::StatusOr<V4l2Options> ParseV4l2Uri(absl::string_view uri) {
       status = integer(&o.schedule.phase_steps, 1, 64);
     } else if (key == "align") {
       if (absl::Status s = ParseAlignment(value, &o.assembly.alignment); !s.ok()) {
-        return BadValue(uri, key, value, "trigger, sequence or gap");
+        return internal::BadKeyValue(uri, key, value, "trigger, sequence or gap");
       }
     } else if (key == "gap_ms") {
       double ms = 0;
       status = number(&ms, "a pause in ms");
-      if (status.ok() && ms < 0) status = BadValue(uri, key, value, "a pause >= 0 ms");
+      if (status.ok() && ms < 0) status = internal::BadKeyValue(uri, key, value, "a pause >= 0 ms");
       o.assembly.gap_ns = static_cast<int64_t>(std::llround(ms * 1e6));
     } else if (key == "timeout_ms") {
       int ms = 0;
@@ -203,7 +197,7 @@ absl::StatusOr<V4l2Options> ParseV4l2Uri(absl::string_view uri) {
     } else if (key == "buffers") {
       status = integer(&o.buffers, 1, 64);
     } else if (key == "signed") {
-      if (value != "0" && value != "1") return BadValue(uri, key, value, "0 or 1");
+      if (value != "0" && value != "1") return internal::BadKeyValue(uri, key, value, "0 or 1");
       o.sample.is_signed = value == "1";
     } else if (key == "bits") {
       status = integer(&o.sample.bits, 1, 16);
@@ -221,7 +215,7 @@ absl::StatusOr<V4l2Options> ParseV4l2Uri(absl::string_view uri) {
       status = number(&cy, "a principal point in px");
     } else if (absl::StartsWith(key, "ctrl.")) {
       absl::StatusOr<std::vector<int64_t>> values = ParseIntegers(value);
-      if (!values.ok()) return BadValue(uri, key, value, "integers separated by commas");
+      if (!values.ok()) return internal::BadKeyValue(uri, key, value, "integers separated by commas");
       o.passthrough.emplace_back(key.substr(5), *values);
     } else {
       return absl::InvalidArgumentError(absl::StrCat(
