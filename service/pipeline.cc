@@ -47,6 +47,8 @@ struct Pipeline::Impl {
   void Announce(SourceState state);
   void PushCycle(CycleItem item);
   void SleepInterruptibly(absl::Duration duration);
+  // Copies the open source's counters into the stats (the source thread's, like Next).
+  void RefreshSourceCounters() ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
 
   // Reconstruction thread ----------------------------------------------------------------------
   void ReconstructLoop();
@@ -159,6 +161,13 @@ void Pipeline::Impl::Announce(SourceState new_state) {
   PushCycle(std::move(item));
 }
 
+void Pipeline::Impl::RefreshSourceCounters() {
+  std::vector<SourceCounter> counters = source->Counters();
+  if (counters.empty()) return;
+  absl::MutexLock lock(&mu);
+  stats.source_counters = std::move(counters);
+}
+
 void Pipeline::Impl::PushCycle(CycleItem item) {
   if (const int dropped = cycle_queue.Push(std::move(item)); dropped > 0) {
     absl::MutexLock lock(&mu);
@@ -221,11 +230,6 @@ void Pipeline::Impl::SourceLoop() {
     {
       absl::MutexLock lock(&Hdf5Mutex());
       next = source->Next(kNextTimeout, &frame);
-      std::vector<SourceCounter> counters = source->Counters();
-      if (!counters.empty()) {
-        absl::MutexLock stats_lock(&mu);
-        stats.source_counters = std::move(counters);
-      }
       if (next.ok()) {
         std::shared_ptr<const CalibrationTable> table;
         {
@@ -235,12 +239,15 @@ void Pipeline::Impl::SourceLoop() {
         recorder.OnFrame(frame, *source, std::move(table));
         absl::StatusOr<bool> added = assembler->Add(frame);
         complete = added.ok() && *added;
+        // The source's own counters change by sequences, not frames: read them once a cycle.
+        if (complete) RefreshSourceCounters();
         absl::MutexLock stats_lock(&mu);
         ++stats.raw_frames_in;
         stats.raw_frames_dropped = source_frames_lost + assembler_dropped_before +
                                    static_cast<uint64_t>(assembler->dropped_frames());
       } else {
         recorder.OnNoFrame(/*final=*/false, "");
+        RefreshSourceCounters();  // what went wrong shows while no frame comes
       }
       if (absl::IsOutOfRange(next)) {
         CloseSourceLocked(absl::StrCat(source->uri(), " ended"));
