@@ -49,10 +49,8 @@ bool ControlDescription::dynamic_array() const {
 
 bool IsTofControl(const ControlDescription& control) {
   if ((control.id & 0xffff0000u) == kTofControlClass) return true;
-  if (control.id == kCidCameraTrigger || control.id == kCidCameraTriggerMode) return true;
-  for (const char* name : {"TOF Phase Sequence", "TOF Frequency Modulation",
-                           "TOF Time Integration", "Camera Trigger", "Camera Trigger Mode"}) {
-    if (control.name == name) return true;
+  for (const ProposedControl& proposed : kProposedControls) {
+    if (control.id == proposed.id || control.name == proposed.name) return true;
   }
   return false;
 }

@@ -4,6 +4,8 @@
 // (../shared/research/v4l2.md §2.1, §2.2, §2.5, §5.1).
 #pragma once
 
+#include <linux/videodev2.h>
+
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -45,13 +47,26 @@ struct ControlDescription {
 };
 
 // The proposed ToF control class (V4L2_CTRL_CLASS_TOF, mlx7502x patch v6; not in Debian 12's
-// kernel headers) and the camera trigger controls of the same series.
+// kernel headers) and the camera trigger controls of the same series, each with the name drivers
+// give it (its ID moved between patch versions, its name did not) and its type.
+struct ProposedControl {
+  uint32_t id;
+  const char* name;
+  uint32_t type;  // V4L2_CTRL_TYPE_*
+};
 constexpr uint32_t kTofControlClass = 0x00a60000;
-constexpr uint32_t kCidTofPhaseSequence = 0x00a60900;
-constexpr uint32_t kCidTofFrequencyModulation = 0x00a60901;
-constexpr uint32_t kCidTofTimeIntegration = 0x00a60902;
-constexpr uint32_t kCidCameraTrigger = 0x009a0925;
-constexpr uint32_t kCidCameraTriggerMode = 0x009a0926;
+constexpr ProposedControl kTofPhaseSequence = {0x00a60900, "TOF Phase Sequence",
+                                               V4L2_CTRL_TYPE_U16};
+constexpr ProposedControl kTofFrequencyModulation = {0x00a60901, "TOF Frequency Modulation",
+                                                     V4L2_CTRL_TYPE_U32};
+constexpr ProposedControl kTofTimeIntegration = {0x00a60902, "TOF Time Integration",
+                                                 V4L2_CTRL_TYPE_U16};
+constexpr ProposedControl kCameraTrigger = {0x009a0925, "Camera Trigger", V4L2_CTRL_TYPE_BUTTON};
+constexpr ProposedControl kCameraTriggerMode = {0x009a0926, "Camera Trigger Mode",
+                                                V4L2_CTRL_TYPE_MENU};
+constexpr ProposedControl kProposedControls[] = {kTofPhaseSequence, kTofFrequencyModulation,
+                                                 kTofTimeIntegration, kCameraTrigger,
+                                                 kCameraTriggerMode};
 
 // A control of the ToF class or a trigger control, by ID or (IDs moved between patch versions)
 // by name.

@@ -45,13 +45,15 @@ struct TofControls {
 // By ID, else by name; either way of the control's type (an ID of a proposed control may mean
 // another control on another kernel).
 absl::StatusOr<ControlDescription> FindControl(const std::vector<ControlDescription>& controls,
-                                               uint32_t id, const std::string& name,
-                                               uint32_t type, const std::string& node) {
+                                               const ProposedControl& wanted,
+                                               const std::string& node) {
+  const uint32_t id = wanted.id;
+  const std::string name = wanted.name;
   for (const ControlDescription& c : controls) {
-    if (c.id == id && c.type == type) return c;
+    if (c.id == id && c.type == wanted.type) return c;
   }
   for (const ControlDescription& c : controls) {
-    if (absl::EqualsIgnoreCase(c.name, name) && c.type == type) return c;
+    if (absl::EqualsIgnoreCase(c.name, name) && c.type == wanted.type) return c;
   }
   std::vector<std::string> found;
   for (const ControlDescription& c : controls) found.push_back(absl::StrCat("'", c.name, "'"));
@@ -62,26 +64,10 @@ absl::StatusOr<ControlDescription> FindControl(const std::vector<ControlDescript
       found.empty() ? " and no controls at all" : absl::StrCat("; it has ", absl::StrJoin(found, ", "))));
 }
 
-// A control's name as a URI key spells a space as %20 (or any byte as %XX).
-std::string PercentDecoded(const std::string& text) {
-  std::string out;
-  for (size_t i = 0; i < text.size(); ++i) {
-    int byte = 0;
-    if (text[i] == '%' && i + 2 < text.size() &&
-        absl::SimpleHexAtoi(absl::string_view(text).substr(i + 1, 2), &byte)) {
-      out.push_back(static_cast<char>(byte));
-      i += 2;
-    } else {
-      out.push_back(text[i]);
-    }
-  }
-  return out;
-}
-
 absl::StatusOr<ControlDescription> FindPassthrough(const std::vector<ControlDescription>& controls,
                                                    const std::string& encoded_key,
                                                    const std::string& node) {
-  const std::string key = PercentDecoded(encoded_key);
+  const std::string key = internal::PercentDecoded(encoded_key);
   uint32_t id = 0;
   if (absl::StartsWith(key, "0x") && absl::SimpleHexAtoi(key.substr(2), &id)) {
     for (const ControlDescription& c : controls) {
@@ -141,6 +127,8 @@ class V4l2Source final : public CaptureSource {
       const std::vector<ControlValue>& program);
   absl::Status Trigger();
   absl::Status Restart(const std::string& why);
+  // After STREAMON: the alignment and numbering start again.
+  void StreamStarted();
   absl::Status HandleBuffer(const DequeuedFrame& dequeued);
   void Emit();
 
@@ -303,10 +291,10 @@ void V4l2Source::PlanGeneric() {
 absl::Status V4l2Source::FindTrigger(const std::vector<ControlDescription>& controls) {
   const std::string node = controls_device().path();
   absl::StatusOr<ControlDescription> trigger =
-      FindControl(controls, kCidCameraTrigger, "Camera Trigger", V4L2_CTRL_TYPE_BUTTON, node);
+      FindControl(controls, kCameraTrigger, node);
   if (!trigger.ok()) return WithContext(uri_, trigger.status());
   absl::StatusOr<ControlDescription> mode =
-      FindControl(controls, kCidCameraTriggerMode, "Camera Trigger Mode", V4L2_CTRL_TYPE_MENU, node);
+      FindControl(controls, kCameraTriggerMode, node);
   if (!mode.ok()) return WithContext(uri_, mode.status());
   tof_.trigger = *trigger;
   tof_.trigger_mode = *mode;
@@ -319,17 +307,12 @@ absl::Status V4l2Source::PlanMlx(const std::vector<ControlDescription>& controls
   const std::string node = controls_device().path();
   struct Wanted {
     ControlDescription* out;
-    uint32_t id;
-    const char* name;
-    uint32_t type;
+    const ProposedControl& control;
   };
-  for (const Wanted& w : {Wanted{&tof_.phases, kCidTofPhaseSequence, "TOF Phase Sequence",
-                                 V4L2_CTRL_TYPE_U16},
-                          Wanted{&tof_.frequency, kCidTofFrequencyModulation,
-                                 "TOF Frequency Modulation", V4L2_CTRL_TYPE_U32},
-                          Wanted{&tof_.integration, kCidTofTimeIntegration,
-                                 "TOF Time Integration", V4L2_CTRL_TYPE_U16}}) {
-    absl::StatusOr<ControlDescription> found = FindControl(controls, w.id, w.name, w.type, node);
+  for (const Wanted& w : {Wanted{&tof_.phases, kTofPhaseSequence},
+                          Wanted{&tof_.frequency, kTofFrequencyModulation},
+                          Wanted{&tof_.integration, kTofTimeIntegration}}) {
+    absl::StatusOr<ControlDescription> found = FindControl(controls, w.control, node);
     if (!found.ok()) return WithContext(uri_, found.status());
     *w.out = *found;
   }
@@ -497,12 +480,17 @@ absl::Status V4l2Source::Start() {
     return WithContext(uri_, s);
   }
   started_ = true;
+  StreamStarted();
+  return absl::OkStatus();
+}
+
+void V4l2Source::StreamStarted() {
   assembler_->Reset();
   triggered_ = false;
-  next_trigger_sequence_ = 0;  // drivers number frames from 0 at STREAMON
-  sequence_base_ = next_sequence_;
+  next_trigger_sequence_ = 0;      // drivers number frames from 0 at STREAMON
+  sequence_base_ = next_sequence_;  // so the frames' numbers keep increasing
   last_progress_ = absl::Now();
-  return absl::OkStatus();
+  bad_samples_ = false;
 }
 
 absl::Status V4l2Source::Stop() {
@@ -549,12 +537,7 @@ absl::Status V4l2Source::Restart(const std::string& why) {
       !s.ok()) {
     return WithContext(uri_, s);
   }
-  assembler_->Reset();
-  triggered_ = false;
-  next_trigger_sequence_ = 0;
-  sequence_base_ = next_sequence_;
-  last_progress_ = absl::Now();
-  bad_samples_ = false;
+  StreamStarted();
   return absl::OkStatus();
 }
 
@@ -596,9 +579,9 @@ absl::Status V4l2Source::HandleBuffer(const DequeuedFrame& dequeued) {
     bad_samples_ = false;
     return absl::OkStatus();
   }
-  if (options_.profile == Profile::kMlx7502x) {
-    // Controls another program set during the sequence: drop it; the next trigger sets them
-    // again (Trigger).
+  if (options_.profile == Profile::kMlx7502x && !control_events_) {
+    // Controls another program set during the sequence, where the driver sends no events to
+    // say so (HandleBuffer reads them): drop it; the next trigger sets them again (Trigger).
     absl::StatusOr<std::vector<std::vector<int64_t>>> now = ReadBack(sequences_[next_].program);
     if (!now.ok()) return now.status();
     if (*now != sequences_[next_].read_back) {

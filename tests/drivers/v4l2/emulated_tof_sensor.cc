@@ -107,9 +107,9 @@ void Complete(UMockdevIoctlClient* client, int error) {
 using State = EmulatedTofSensor::State;
 using NodeState = EmulatedTofSensor::State::Node;
 
-constexpr const char* kPhaseSequenceName = "TOF Phase Sequence";
-constexpr const char* kFrequencyName = "TOF Frequency Modulation";
-constexpr const char* kIntegrationName = "TOF Time Integration";
+constexpr const char* kPhaseSequenceName = kTofPhaseSequence.name;
+constexpr const char* kFrequencyName = kTofFrequencyModulation.name;
+constexpr const char* kIntegrationName = kTofTimeIntegration.name;
 
 const ControlDescription* ControlById(const NodeState& node, uint32_t id) {
   for (const ControlDescription& control : node.behaviour.controls) {
@@ -165,11 +165,10 @@ T LoadElement(const uint8_t* at) {
   return value;
 }
 
-int64_t TriggerMode(State& state, NodeState& controls) {
-  const ControlDescription* mode = ControlById(controls, kCidCameraTriggerMode);
-  if (mode == nullptr) mode = ControlByName(controls, "Camera Trigger Mode");
+int64_t TriggerMode(NodeState& controls) {
+  const ControlDescription* mode = ControlById(controls, kCameraTriggerMode.id);
+  if (mode == nullptr) mode = ControlByName(controls, kCameraTriggerMode.name);
   if (mode == nullptr) return 0;
-  (void)state;
   return controls.values[mode->id].empty() ? 0 : controls.values[mode->id][0];
 }
 
@@ -184,8 +183,7 @@ void ChangedBySomeoneElse(NodeState& node, uint32_t id, std::vector<int64_t> val
 
 // Starts a sequence on `video` with the current values of `controls`: renders its frames (or
 // what the sequence's fault makes of them) into the delivery queue.
-void StartSequence(State& state, NodeState& video, NodeState& controls) {
-  (void)state;
+void StartSequence(NodeState& video, NodeState& controls) {
   ProgrammedSequence program;
   program.index = video.sequences_started++;
   const std::vector<int64_t> frequency = ValueOf(controls, kFrequencyName);
@@ -332,8 +330,8 @@ int AnswerControls(State& state, NodeState& node, unsigned long request,
       }
     }
     if (description->type == V4L2_CTRL_TYPE_BUTTON &&
-        (description->id == kCidCameraTrigger || description->name == "Camera Trigger") &&
-        TriggerMode(state, node) != 1) {
+        (description->id == kCameraTrigger.id || description->name == kCameraTrigger.name) &&
+        TriggerMode(node) != 1) {
       return EBUSY;  // the driver grabs the button unless the trigger mode is internal
     }
     staged.emplace_back(description, std::move(value));
@@ -343,7 +341,7 @@ int AnswerControls(State& state, NodeState& node, unsigned long request,
   for (auto& [description, value] : staged) {
     if (description->type == V4L2_CTRL_TYPE_BUTTON) {
       NodeState& video = state.FramesOf(node);
-      if (video.streaming && video.behaviour.renderer) StartSequence(state, video, node);
+      if (video.streaming && video.behaviour.renderer) StartSequence(video, node);
       continue;
     }
     node.values[description->id] = std::move(value);
@@ -426,7 +424,7 @@ int AnswerStreaming(State& sensor, NodeState& state, unsigned long request,
     if (state.frames.empty() && state.behaviour.renderer && !state.queued.empty()) {
       // Continuous mode: the sensor takes one sequence after another.
       NodeState& controls = sensor.ControlsOf(state);
-      if (TriggerMode(sensor, controls) == 0) StartSequence(sensor, state, controls);
+      if (TriggerMode(controls) == 0) StartSequence(state, controls);
       if (state.unplugged) return ENODEV;
     }
     if (state.queued.empty() || state.frames.empty()) return EAGAIN;
@@ -569,8 +567,8 @@ std::vector<ControlDescription> Mlx7502xControls(uint32_t tof_base) {
   std::vector<ControlDescription> controls = {
       {.id = 0x00981ad0, .name = "Output Mode", .type = V4L2_CTRL_TYPE_MENU, .minimum = 0,
        .maximum = 4, .step = 1},
-      {.id = kCidCameraTrigger, .name = "Camera Trigger", .type = V4L2_CTRL_TYPE_BUTTON},
-      {.id = kCidCameraTriggerMode, .name = "Camera Trigger Mode", .type = V4L2_CTRL_TYPE_MENU,
+      {.id = kCameraTrigger.id, .name = kCameraTrigger.name, .type = kCameraTrigger.type},
+      {.id = kCameraTriggerMode.id, .name = kCameraTriggerMode.name, .type = kCameraTriggerMode.type,
        .minimum = 0, .maximum = 2, .step = 1},
       {.id = tof_base, .name = kPhaseSequenceName, .type = V4L2_CTRL_TYPE_U16, .minimum = 0,
        .maximum = 315, .step = 45, .elements = 8, .flags = V4L2_CTRL_FLAG_DYNAMIC_ARRAY},

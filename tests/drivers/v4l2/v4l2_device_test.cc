@@ -69,7 +69,7 @@ TEST_F(V4l2DeviceTest, CapabilitiesFormatsAndControlsComeFromTheNode) {
   ASSERT_THAT(controls.status(), IsOk());
   ASSERT_EQ(controls->size(), 6u);
   const ControlDescription& phases = (*controls)[3];
-  EXPECT_EQ(phases.id, kCidTofPhaseSequence);
+  EXPECT_EQ(phases.id, kTofPhaseSequence.id);
   EXPECT_EQ(phases.name, "TOF Phase Sequence");
   EXPECT_TRUE(phases.dynamic_array());
   EXPECT_EQ(phases.elements, 8u);
@@ -89,7 +89,7 @@ const ControlDescription& ControlNamed(const std::vector<ControlDescription>& co
 
 TEST_F(V4l2DeviceTest, ControlsAreSetAllOrNothingAndReadBackAsTheDriverRoundedThem) {
   EmulatedNode node = Mlx75027();
-  node.refuse_control = kCidTofTimeIntegration;
+  node.refuse_control = kTofTimeIntegration.id;
   sensor_.AddNode(node);
   absl::StatusOr<V4l2Device> device = V4l2Device::Open("/dev/video0");
   ASSERT_THAT(device.status(), IsOk());
@@ -127,14 +127,14 @@ TEST_F(V4l2DeviceTest, ControlEventsTellOfChangesByOthers) {
   sensor_.AddNode(Mlx75027());
   absl::StatusOr<V4l2Device> device = V4l2Device::Open("/dev/video0");
   ASSERT_THAT(device.status(), IsOk());
-  const uint32_t ids[] = {kCidTofFrequencyModulation, kCidTofPhaseSequence};
+  const uint32_t ids[] = {kTofFrequencyModulation.id, kTofPhaseSequence.id};
   ASSERT_THAT(device->SubscribeControlEvents(ids), IsOk());
   EXPECT_THAT(device->ChangedControls(), IsOkAndHolds(IsEmpty()));
-  sensor_.SetControl("video0", kCidTofFrequencyModulation, {30'000'000});
-  sensor_.SetControl("video0", kCidTofTimeIntegration, {100});  // not subscribed
-  sensor_.SetControl("video0", kCidTofPhaseSequence, {0, 180});
+  sensor_.SetControl("video0", kTofFrequencyModulation.id, {30'000'000});
+  sensor_.SetControl("video0", kTofTimeIntegration.id, {100});  // not subscribed
+  sensor_.SetControl("video0", kTofPhaseSequence.id, {0, 180});
   EXPECT_THAT(device->ChangedControls(),
-              IsOkAndHolds(ElementsAre(kCidTofFrequencyModulation, kCidTofPhaseSequence)));
+              IsOkAndHolds(ElementsAre(kTofFrequencyModulation.id, kTofPhaseSequence.id)));
   EXPECT_THAT(device->ChangedControls(), IsOkAndHolds(IsEmpty()));
   // A driver without control events says so.
   EmulatedNode silent = Mlx75027();

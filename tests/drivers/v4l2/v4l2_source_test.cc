@@ -130,9 +130,9 @@ TEST_F(V4l2SourceTest, Mlx7502xSetsEverySequenceAndStampsTheReadBackValues) {
       EXPECT_EQ(c.sequence, frames[i - 1].config.sequence + 1) << i;
     }
   }
-  EXPECT_EQ(sensor_.Control("video0", kCidTofPhaseSequence),
+  EXPECT_EQ(sensor_.Control("video0", kTofPhaseSequence.id),
             (std::vector<int64_t>{0, 90, 180, 270}));
-  EXPECT_EQ(sensor_.Control("video0", kCidCameraTriggerMode), std::vector<int64_t>{1});
+  EXPECT_EQ(sensor_.Control("video0", kCameraTriggerMode.id), std::vector<int64_t>{1});
   EXPECT_EQ(Counter(*source, "sequences"), 6);
   EXPECT_EQ(Counter(*source, "buffers"), 24);
   EXPECT_EQ(Counter(*source, "discarded_buffers"), 0);
@@ -185,9 +185,9 @@ TEST_F(V4l2SourceTest, HarmonicCancellationSumsSubExposuresAtTheirPhasesAndTimes
     EXPECT_NEAR(frames[i].pixels[5], 500.0f, 1e-3f) << i;
   }
   // Two sequences per harmonic (the phase control holds 8 phases: two buckets of three).
-  EXPECT_EQ(sensor_.Control("video0", kCidTofPhaseSequence),
+  EXPECT_EQ(sensor_.Control("video0", kTofPhaseSequence.id),
             (std::vector<int64_t>{180, 225, 270, 270, 315, 0}));
-  EXPECT_EQ(sensor_.Control("video0", kCidTofTimeIntegration),
+  EXPECT_EQ(sensor_.Control("video0", kTofTimeIntegration.id),
             (std::vector<int64_t>{146, 207, 146, 146, 207, 146}));
   EXPECT_EQ(Counter(*source, "sequences"), 6);
   EXPECT_EQ(Counter(*source, "buffers"), 36);
@@ -264,7 +264,7 @@ TEST_F(V4l2SourceTest, TheDaemonCanChangeTheTakesInTheUri) {
 
 TEST_F(V4l2SourceTest, ARefusedControlIsNamedWithItsValue) {
   EmulatedNode node = Mlx75027(Labelled);
-  node.refuse_control = kCidTofFrequencyModulation;
+  node.refuse_control = kTofFrequencyModulation.id;
   sensor_.AddNode(node);
   EXPECT_THAT(OpenSource(kMlxUri).status(),
               StatusIs(absl::StatusCode::kInvalidArgument,
@@ -303,7 +303,7 @@ void ExpectGenericAlignment(EmulatedTofSensor& sensor, const std::string& align)
   EmulatedNode node = Mlx75027(Labelled);
   node.formats = {{kFourccY12, "12-bit Greyscale"}};
   sensor.AddNode(node);
-  sensor.SetControl("video0", kCidTofPhaseSequence, {0, 90, 180, 270});
+  sensor.SetControl("video0", kTofPhaseSequence.id, {0, 90, 180, 270});
   absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSource(absl::StrCat(
       "v4l2:/dev/video0?width=32&height=24&f=40e6&m=1&align=", align, "&gap_ms=10"));
   ASSERT_THAT(source.status(), IsOk());
@@ -331,18 +331,18 @@ TEST_F(V4l2SourceTest, GenericProfileAlignsByThePauseBetweenSequences) {
 
 TEST_F(V4l2SourceTest, GenericProfileCanTriggerEachCycleWhereTheSensorHasATrigger) {
   sensor_.AddNode(Mlx75027(Labelled));
-  sensor_.SetControl("video0", kCidTofPhaseSequence, {0, 90, 180, 270});
+  sensor_.SetControl("video0", kTofPhaseSequence.id, {0, 90, 180, 270});
   std::unique_ptr<CaptureSource> source =
       OpenStarted("v4l2:/dev/video0?fmt=Y12&width=32&height=24&f=40e6&m=1&align=trigger");
   ASSERT_NE(source, nullptr);
-  EXPECT_EQ(sensor_.Control("video0", kCidCameraTriggerMode), std::vector<int64_t>{1});
+  EXPECT_EQ(sensor_.Control("video0", kCameraTriggerMode.id), std::vector<int64_t>{1});
   const std::vector<RawFrame> frames = Take(*source, 8);
   for (size_t i = 0; i < frames.size(); ++i) {
     EXPECT_EQ(static_cast<int>(frames[i].pixels[0]), 100 * static_cast<int>(i / 4 + 1) +
                                                          static_cast<int>(i % 4))
         << i;
   }
-  EXPECT_EQ(sensor_.Control("video0", kCidTofFrequencyModulation), std::vector<int64_t>{40'000'000})
+  EXPECT_EQ(sensor_.Control("video0", kTofFrequencyModulation.id), std::vector<int64_t>{40'000'000})
       << "the generic profile sets no ToF control (40 MHz is the driver's default)";
   // A node without a trigger cannot be triggered: the message says what is missing.
   EmulatedNode plain = Mlx75027(Labelled);
@@ -427,7 +427,7 @@ TEST_P(V4l2SourceFaultTest, TheBrokenSequenceIsDroppedCountedAndTakenAgain) {
     // Noticed at once by its event (abandoned, not a whole sequence), or by the read-back at
     // its end (whole, then dropped); set again before the retake either way.
     EXPECT_EQ(Counter(*source, "sequences_dropped_abandoned"), 0);
-    EXPECT_EQ(sensor_.Control("video0", kCidTofFrequencyModulation),
+    EXPECT_EQ(sensor_.Control("video0", kTofFrequencyModulation.id),
               std::vector<int64_t>{60'000'000});
   }
 }
