@@ -29,6 +29,13 @@ absl::Status WriteScheduleAttributes(hid_t object, const ScheduleOptions& schedu
       h5::WriteDoubleAttribute(object, "proxy_frequency_hz", schedule.proxy_frequency_hz));
   status.Update(h5::WriteDoubleAttribute(object, "exposure_s", schedule.exposure_s));
   status.Update(h5::WriteInt64Attribute(object, "takes", schedule.takes));
+  status.Update(h5::WriteInt64Attribute(object, "buckets", schedule.buckets));
+  if (!schedule.harmonics.empty()) {
+    status.Update(
+        h5::WriteStringAttribute(object, "harmonics", FormatHarmonicList(schedule.harmonics)));
+  } else if (H5Aexists(object, "harmonics") > 0 && H5Adelete(object, "harmonics") < 0) {
+    status.Update(absl::InternalError("cannot delete attribute harmonics"));
+  }
   return status;
 }
 
@@ -68,8 +75,29 @@ absl::StatusOr<ScheduleOptions> ReadScheduleAttributes(hid_t object, absl::strin
     if (!value.ok()) return value.status();
     take_count = *value;
   }
+  // Files written before N-step sampling and harmonic sets have neither: four buckets, 1..m.
+  int64_t buckets = 4;
+  if (H5Aexists(object, "buckets") > 0) {
+    absl::StatusOr<int64_t> value = h5::ReadIntegerAttribute(object, "buckets", where,
+                                                             kMinPhaseBuckets, kMaxPhaseBuckets);
+    if (!value.ok()) return value.status();
+    buckets = *value;
+  }
+  std::vector<int> harmonics;
+  if (H5Aexists(object, "harmonics") > 0) {
+    absl::StatusOr<std::string> text = h5::ReadStringAttribute(object, "harmonics", where);
+    if (!text.ok()) return text.status();
+    absl::StatusOr<std::vector<int>> parsed = ParseHarmonicList(*text);
+    if (!parsed.ok()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(where, ": attribute harmonics: ", parsed.status().message()));
+    }
+    harmonics = *std::move(parsed);
+  }
   return ScheduleOptions{.base_frequency_hz = *frequency,
                          .order = static_cast<int>(*order),
+                         .harmonics = std::move(harmonics),
+                         .buckets = static_cast<int>(buckets),
                          .sampling = *sampling_scheme,
                          .phase_steps = static_cast<int>(*phase_steps),
                          .zeroth = *zeroth_scheme,

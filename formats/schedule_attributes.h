@@ -3,7 +3,8 @@
 // Attributes: base_frequency_hz (float64, Hz), order (int64, m), sampling (string:
 // "four-bucket", "arccos", "harmonic-cancellation"), phase_steps (int64, n_phi), zeroth (string:
 // "pair", "proxy", "estimated"), proxy_frequency_hz (float64, Hz), exposure_s (float64, s),
-// takes (int64).
+// takes (int64), buckets (int64, N of N-step sampling; absent = 4), harmonics (string, the
+// measured harmonics in capture order, e.g. "10,2,15"; absent = 1..order).
 #pragma once
 
 #include <hdf5.h>

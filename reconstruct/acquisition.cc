@@ -2,18 +2,20 @@
 // thesis §8.3.1.
 #include "transient/reconstruct/acquisition.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 
 namespace transient {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-// Bucket offsets of four-bucket sampling (thesis §8.3.1).
-constexpr double kBuckets[4] = {0.0, 0.5 * kPi, kPi, 1.5 * kPi};
 // Matching of recorded floating-point metadata: values written by a source and read back from a
 // file are equal to far better than this; a different configuration differs by far more.
 constexpr double kRelativeMatch = 1e-6;
@@ -99,6 +101,31 @@ absl::Status ScheduleOptions::Validate() const {
   if (order < 1 || order > kMaxOrder) {
     return violated("order", order, absl::StrCat("1 <= order <= ", kMaxOrder));
   }
+  if (!harmonics.empty()) {
+    std::vector<bool> seen(kMaxOrder + 1, false);
+    int highest = 0;
+    for (int j : harmonics) {
+      if (j < 1 || j > kMaxOrder) {
+        return violated("harmonics", FormatHarmonicList(harmonics),
+                        absl::StrCat("every harmonic in 1..", kMaxOrder, " (found ", j, ")"));
+      }
+      if (seen[static_cast<size_t>(j)]) {
+        return violated("harmonics", FormatHarmonicList(harmonics),
+                        absl::StrCat("distinct harmonics (", j, " twice)"));
+      }
+      seen[static_cast<size_t>(j)] = true;
+      highest = std::max(highest, j);
+    }
+    if (order != highest) {
+      return violated("order", order,
+                      absl::StrCat("order = max(harmonics) = ", highest, " (harmonics ",
+                                   FormatHarmonicList(harmonics), ")"));
+    }
+  }
+  if (buckets < kMinPhaseBuckets || buckets > kMaxPhaseBuckets) {
+    return violated("buckets", buckets,
+                    absl::StrCat(kMinPhaseBuckets, " <= buckets <= ", kMaxPhaseBuckets));
+  }
   if (phase_steps < 1 || phase_steps > 64) {
     return violated("phase_steps", phase_steps, "1 <= phase_steps <= 64");
   }
@@ -115,6 +142,72 @@ absl::Status ScheduleOptions::Validate() const {
   return absl::OkStatus();
 }
 
+std::vector<int> ScheduleOptions::MeasuredHarmonics() const {
+  if (!harmonics.empty()) return harmonics;
+  std::vector<int> all(static_cast<size_t>(std::max(order, 0)));
+  for (int j = 1; j <= order; ++j) all[static_cast<size_t>(j - 1)] = j;
+  return all;
+}
+
+bool ScheduleOptions::HasAllHarmonics() const {
+  if (harmonics.empty()) return true;
+  std::vector<bool> seen(static_cast<size_t>(order) + 1, false);
+  for (int j : harmonics) {
+    if (j >= 1 && j <= order) seen[static_cast<size_t>(j)] = true;
+  }
+  for (int j = 1; j <= order; ++j) {
+    if (!seen[static_cast<size_t>(j)]) return false;
+  }
+  return true;
+}
+
+std::string ScheduleOptions::MissingHarmonicsText(absl::string_view what) const {
+  if (HasAllHarmonics()) return "";
+  std::vector<bool> seen(static_cast<size_t>(order) + 1, false);
+  for (int j : harmonics) {
+    if (j >= 1 && j <= order) seen[static_cast<size_t>(j)] = true;
+  }
+  // Runs of missing harmonics: "1, 3-9, 11-14".
+  std::vector<std::string> runs;
+  for (int j = 1; j <= order; ++j) {
+    if (seen[static_cast<size_t>(j)]) continue;
+    int last = j;
+    while (last + 1 <= order && !seen[static_cast<size_t>(last + 1)]) ++last;
+    runs.push_back(last == j ? absl::StrCat(j) : absl::StrCat(j, "-", last));
+    j = last;
+  }
+  std::vector<int> sorted = harmonics;
+  std::sort(sorted.begin(), sorted.end());
+  return absl::StrCat("the schedule measures harmonics ", absl::StrJoin(sorted, ", "), " of ",
+                      FrequencyText(base_frequency_hz), "; ", what,
+                      " needs every harmonic 1..", order, " (missing ", absl::StrJoin(runs, ", "),
+                      ")");
+}
+
+double BucketPhaseShift(int k, int buckets) { return 2.0 * kPi * k / buckets; }
+
+int BucketIndex(double phase_shift_rad, int buckets) {
+  const long k = std::lround(phase_shift_rad * buckets / (2.0 * kPi));
+  return static_cast<int>(((k % buckets) + buckets) % buckets);
+}
+
+std::string FormatHarmonicList(std::span<const int> harmonics) {
+  return absl::StrJoin(harmonics, ",");
+}
+
+absl::StatusOr<std::vector<int>> ParseHarmonicList(absl::string_view text) {
+  std::vector<int> harmonics;
+  for (absl::string_view entry : absl::StrSplit(text, ',')) {
+    int j = 0;
+    if (!absl::SimpleAtoi(entry, &j)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "harmonic list '", text, "': '", entry, "' is not an integer; expected e.g. 10,2,15"));
+    }
+    harmonics.push_back(j);
+  }
+  return harmonics;
+}
+
 absl::StatusOr<AcquisitionSchedule> AcquisitionSchedule::Create(const ScheduleOptions& options) {
   if (absl::Status status = options.Validate(); !status.ok()) return status;
   AcquisitionSchedule schedule;
@@ -126,6 +219,10 @@ absl::StatusOr<AcquisitionSchedule> AcquisitionSchedule::Create(const ScheduleOp
     gain += s.weight * std::polar(1.0, -s.phase_shift_rad);
   }
   schedule.nominal_gain_ = gain;
+  std::vector<double> buckets(static_cast<size_t>(options.buckets));
+  for (int k = 0; k < options.buckets; ++k) {
+    buckets[static_cast<size_t>(k)] = BucketPhaseShift(k, options.buckets);
+  }
 
   for (int take = 0; take < options.takes; ++take) {
     auto add = [&](int harmonic, double frequency_hz, double shift, bool illumination) {
@@ -144,13 +241,13 @@ absl::StatusOr<AcquisitionSchedule> AcquisitionSchedule::Create(const ScheduleOp
         add(0, 0.0, 0.0, false);
         break;
       case ZerothScheme::kLowFrequencyProxy:
-        for (double b : kBuckets) add(0, options.proxy_frequency_hz, b, true);
+        for (double b : buckets) add(0, options.proxy_frequency_hz, b, true);
         break;
       case ZerothScheme::kEstimated:
         break;
     }
-    for (int j = 1; j <= options.order; ++j) {
-      for (double b : kBuckets) add(j, j * options.base_frequency_hz, b, true);
+    for (int j : options.MeasuredHarmonics()) {
+      for (double b : buckets) add(j, j * options.base_frequency_hz, b, true);
     }
   }
   return schedule;
@@ -175,11 +272,16 @@ std::string AcquisitionSchedule::Describe() const {
   if (options_.sampling != SamplingScheme::kFourBucket) {
     absl::StrAppend(&sampling, " (n_phi = ", options_.phase_steps, ")");
   }
+  if (options_.buckets != 4) absl::StrAppend(&sampling, ", ", options_.buckets, "-step");
   std::string zeroth(ZerothSchemeName(options_.zeroth));
   if (options_.zeroth == ZerothScheme::kLowFrequencyProxy) {
     absl::StrAppend(&zeroth, " at ", FrequencyText(options_.proxy_frequency_hz));
   }
-  return absl::StrCat("f = ", FrequencyText(options_.base_frequency_hz), ", m = ", options_.order,
+  const std::string harmonics =
+      options_.harmonics.empty()
+          ? absl::StrCat("m = ", options_.order)
+          : absl::StrCat("harmonics ", absl::StrJoin(options_.harmonics, ", "));
+  return absl::StrCat("f = ", FrequencyText(options_.base_frequency_hz), ", ", harmonics,
                       ", ", sampling, ", zeroth: ", zeroth, ", ", options_.takes,
                       options_.takes == 1 ? " take: " : " takes: ", raw_frames_per_frame(),
                       " raw frames");

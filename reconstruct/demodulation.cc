@@ -94,7 +94,17 @@ Demodulator::Demodulator(const AcquisitionSchedule& schedule, ImageGeometry geom
       takes_(schedule.options().takes),
       inverse_gain_(1.0 / schedule.nominal_gain()),
       sample_pixels_(ChooseSamples(geometry.pixel_count())) {
-  plane_exposures_.assign(static_cast<size_t>(schedule.order() + 1), {-1, -1, -1, -1});
+  const int buckets = schedule.options().buckets;
+  std::array<int, kMaxPhaseBuckets> none;
+  none.fill(-1);
+  plane_exposures_.assign(static_cast<size_t>(schedule.order() + 1), none);
+  for (int k = 0; k < buckets; ++k) {
+    // Exact zeros where cos or sin vanish (four-bucket: the plain differences).
+    auto snap = [](double v) { return static_cast<float>(std::abs(v) < 1e-12 ? 0.0 : v); };
+    const double shift = BucketPhaseShift(k, buckets);
+    bucket_cos_.push_back(snap(2.0 / buckets * std::cos(shift)));
+    bucket_sin_.push_back(snap(2.0 / buckets * std::sin(shift)));
+  }
   exposure_plane_.resize(static_cast<size_t>(exposures_per_take_));
   for (int e = 0; e < exposures_per_take_; ++e) {
     const ExposureConfig& config = schedule.exposures()[static_cast<size_t>(e)];
@@ -103,7 +113,7 @@ Demodulator::Demodulator(const AcquisitionSchedule& schedule, ImageGeometry geom
     if (config.frequency_hz == 0.0) {  // the unmodulated pair
       slot = config.illumination ? 0 : 1;
     } else {
-      slot = static_cast<int>(std::lround(config.phase_shift_rad / (0.5 * std::numbers::pi)));
+      slot = BucketIndex(config.phase_shift_rad, buckets);
     }
     plane_exposures_[static_cast<size_t>(config.harmonic)][static_cast<size_t>(slot)] = e;
   }
@@ -362,31 +372,37 @@ absl::Status Demodulator::Demodulate(std::span<const RawFrame> cycle, MomentImag
   const ZerothScheme zeroth = schedule_.options().zeroth;
   for (int j = 0; j <= m; ++j) {
     if (plane_filled[static_cast<size_t>(j)]) continue;
-    const std::array<int, 4>& ex = plane_exposures_[static_cast<size_t>(j)];
+    const std::array<int, kMaxPhaseBuckets>& ex = plane_exposures_[static_cast<size_t>(j)];
     float* re = out->real_plane(j);
     float* im = out->imag_plane(j);
     if (j == 0 && zeroth == ZerothScheme::kEstimated) continue;  // plane 0 stays 0
+    if (ex[0] < 0) continue;  // a harmonic the schedule does not measure: stays 0
     if (j == 0 && zeroth == ZerothScheme::kUnmodulatedPair) {
       const float* on = average[static_cast<size_t>(ex[0])];
       const float* off = average[static_cast<size_t>(ex[1])];
       for (int64_t p = 0; p < pixels; ++p) re[p] = on[p] - off[p];
       continue;
     }
-    const float* a0 = average[static_cast<size_t>(ex[0])];
-    const float* a1 = average[static_cast<size_t>(ex[1])];
-    const float* a2 = average[static_cast<size_t>(ex[2])];
-    const float* a3 = average[static_cast<size_t>(ex[3])];
+    // Z = (2/N) sum_k M_k exp(i*2*pi*k/N), accumulated bucket by bucket into re, im.
+    std::fill_n(re, pixels, 0.0f);
+    std::fill_n(im, pixels, 0.0f);
+    for (size_t k = 0; k < bucket_cos_.size(); ++k) {
+      const float* a = average[static_cast<size_t>(ex[k])];
+      const float wc = bucket_cos_[k], ws = bucket_sin_[k];
+      for (int64_t p = 0; p < pixels; ++p) {
+        re[p] += wc * a[p];
+        im[p] += ws * a[p];
+      }
+    }
     if (j == 0) {  // low-frequency proxy: the modulus needs no phase calibration
       for (int64_t p = 0; p < pixels; ++p) {
-        const float zr = 0.5f * (a0[p] - a2[p]);
-        const float zi = 0.5f * (a1[p] - a3[p]);
-        re[p] = gain_abs * std::sqrt(zr * zr + zi * zi);
+        re[p] = gain_abs * std::sqrt(re[p] * re[p] + im[p] * im[p]);
+        im[p] = 0.0f;
       }
       continue;
     }
     for (int64_t p = 0; p < pixels; ++p) {
-      const float zr = 0.5f * (a0[p] - a2[p]);
-      const float zi = 0.5f * (a1[p] - a3[p]);
+      const float zr = re[p], zi = im[p];
       re[p] = zr * gain_re - zi * gain_im;
       im[p] = zr * gain_im + zi * gain_re;
     }

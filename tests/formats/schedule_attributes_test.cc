@@ -48,7 +48,15 @@ ScheduleOptions ArccosProxy() {
 
 TEST_F(ScheduleAttributes, EveryFieldReadsBackAsWritten) {
   for (const ScheduleOptions& written :
-       {ArccosProxy(), ScheduleOptions{.sampling = SamplingScheme::kFourBucket,
+       {ArccosProxy(),
+        ScheduleOptions{.base_frequency_hz = 8e6,  // the Kinect v2's
+                        .order = 15,
+                        .harmonics = {10, 2, 15},
+                        .buckets = 3,
+                        .sampling = SamplingScheme::kFourBucket,
+                        .phase_steps = 1,
+                        .zeroth = ZerothScheme::kEstimated},
+        ScheduleOptions{.sampling = SamplingScheme::kFourBucket,
                        .phase_steps = 1,
                        .zeroth = ZerothScheme::kEstimated}}) {
     ASSERT_THAT(written.Validate(), IsOk());
@@ -64,7 +72,19 @@ TEST_F(ScheduleAttributes, EveryFieldReadsBackAsWritten) {
     EXPECT_EQ(read->proxy_frequency_hz, written.proxy_frequency_hz);
     EXPECT_EQ(read->exposure_s, written.exposure_s);
     EXPECT_EQ(read->takes, written.takes);
+    EXPECT_EQ(read->buckets, written.buckets);
+    EXPECT_EQ(read->harmonics, written.harmonics);  // the Kinect's set does not stay behind
   }
+}
+
+TEST_F(ScheduleAttributes, FilesWithoutBucketsOrHarmonicsAreFourBucketOneToM) {
+  ASSERT_THAT(WriteScheduleAttributes(root(), ArccosProxy()), IsOk());
+  ASSERT_GE(H5Adelete(root(), "buckets"), 0);
+  absl::StatusOr<ScheduleOptions> read =
+      ReadScheduleAttributes(root(), "s.h5: /", TakesAttribute::kRequired);
+  ASSERT_THAT(read.status(), IsOk());
+  EXPECT_EQ(read->buckets, 4);
+  EXPECT_TRUE(read->harmonics.empty());
 }
 
 TEST_F(ScheduleAttributes, AMissingTakesIsOneOnlyWhereOptional) {
@@ -112,6 +132,11 @@ TEST_F(ScheduleAttributes, EachBadAttributeIsNamed) {
        "s.h5: /: missing attribute exposure_s"},
       {"takes", [](hid_t g) { ASSERT_THAT(h5::WriteStringAttribute(g, "takes", "3"), IsOk()); },
        "s.h5: /: attribute takes: expected a number (float64), found string"},
+      {"buckets", [](hid_t g) { ASSERT_THAT(h5::WriteInt64Attribute(g, "buckets", 2), IsOk()); },
+       "s.h5: /: attribute buckets: expected an integer in 3..16, found 2"},
+      {"harmonics",
+       [](hid_t g) { ASSERT_THAT(h5::WriteStringAttribute(g, "harmonics", "2,a"), IsOk()); },
+       "s.h5: /: attribute harmonics: harmonic list '2,a': 'a' is not an integer"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);

@@ -14,6 +14,7 @@ namespace {
 
 using ::testing::HasSubstr;
 using ::transient::testing::IsOk;
+using ::transient::testing::IsOkAndHolds;
 using ::transient::testing::StatusIs;
 
 constexpr double kPi = std::numbers::pi;
@@ -226,6 +227,73 @@ TEST(ScheduleOptions, ValidateNamesFieldValueAndRule) {
   o = ScheduleOptions();
   o.takes = 0;
   check(o, "takes = 0. Violated constraint: 1 <= takes <= 1024");
+  o = ScheduleOptions();
+  o.buckets = 2;
+  check(o, "buckets = 2. Violated constraint: 3 <= buckets <= 16");
+  o = ScheduleOptions();
+  o.harmonics = {10, 2, 15};
+  check(o, "order = 3. Violated constraint: order = max(harmonics) = 15 (harmonics 10,2,15)");
+  o.order = 2;
+  o.harmonics = {2, 0};
+  check(o, "harmonics = 2,0. Violated constraint: every harmonic in 1..16 (found 0)");
+  o.order = 2;
+  o.harmonics = {2, 2};
+  check(o, "harmonics = 2,2. Violated constraint: distinct harmonics (2 twice)");
+}
+
+// The Kinect v2's schedule (research/libusb.md §1.5): harmonics 10, 2, 15 of 8 MHz in that
+// capture order, three phase steps of 120 degrees, no zeroth-moment exposure: 9 raw frames.
+TEST(AcquisitionSchedule, AHarmonicSetWithThreeStepsListsItsExposuresInCaptureOrder) {
+  ScheduleOptions o;
+  o.base_frequency_hz = 8e6;
+  o.order = 15;
+  o.harmonics = {10, 2, 15};
+  o.buckets = 3;
+  o.sampling = SamplingScheme::kFourBucket;
+  o.zeroth = ZerothScheme::kEstimated;
+  absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(o);
+  ASSERT_THAT(schedule.status(), IsOk());
+  ASSERT_EQ(schedule->raw_frames_per_frame(), 9);
+  const int want_harmonic[] = {10, 10, 10, 2, 2, 2, 15, 15, 15};
+  for (int i = 0; i < 9; ++i) {
+    const ExposureConfig& e = schedule->exposures()[static_cast<size_t>(i)];
+    EXPECT_EQ(e.harmonic, want_harmonic[i]);
+    EXPECT_DOUBLE_EQ(e.frequency_hz, want_harmonic[i] * 8e6);
+    EXPECT_NEAR(e.phase_shift_rad, 2.0 * kPi * (i % 3) / 3.0, 1e-15);
+  }
+  EXPECT_EQ(schedule->options().MeasuredHarmonics(), (std::vector<int>{10, 2, 15}));
+  EXPECT_FALSE(schedule->options().HasAllHarmonics());
+  EXPECT_EQ(schedule->options().MissingHarmonicsText("MESE"),
+            "the schedule measures harmonics 2, 10, 15 of 8 MHz; MESE needs every harmonic "
+            "1..15 (missing 1, 3-9, 11-14)");
+  EXPECT_EQ(schedule->Describe(),
+            "f = 8 MHz, harmonics 10, 2, 15, four-bucket, 3-step, zeroth: estimated, 1 take: 9 "
+            "raw frames");
+  // A set that is 1..m after all can be reconstructed.
+  o.order = 3;
+  o.harmonics = {3, 1, 2};
+  EXPECT_TRUE(o.HasAllHarmonics());
+  EXPECT_EQ(o.MissingHarmonicsText("MESE"), "");
+  EXPECT_TRUE(ScheduleOptions().HasAllHarmonics());
+  EXPECT_EQ(ScheduleOptions().MeasuredHarmonics(), (std::vector<int>{1, 2, 3}));
+}
+
+TEST(AcquisitionSchedule, BucketIndexInvertsBucketPhaseShiftModuloN) {
+  for (int n = kMinPhaseBuckets; n <= kMaxPhaseBuckets; ++n) {
+    for (int k = 0; k < n; ++k) {
+      EXPECT_EQ(BucketIndex(BucketPhaseShift(k, n), n), k);
+      EXPECT_EQ(BucketIndex(BucketPhaseShift(k, n) - 2.0 * kPi, n), k);  // -2*pi*k/3 etc.
+    }
+  }
+}
+
+TEST(HarmonicList, RoundTripsAndNamesTheBadEntry) {
+  EXPECT_EQ(FormatHarmonicList(std::vector<int>{10, 2, 15}), "10,2,15");
+  EXPECT_THAT(ParseHarmonicList("10,2,15"), IsOkAndHolds(std::vector<int>{10, 2, 15}));
+  EXPECT_THAT(ParseHarmonicList("10,x,15").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("'x' is not an integer")));
+  EXPECT_THAT(ParseHarmonicList("").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("is not an integer")));
 }
 
 TEST(AcquisitionSchedule, SchemeNamesRoundTrip) {

@@ -172,6 +172,77 @@ TEST(Demodulator, FourBucketKeepsTheThirdHarmonicThatArccosSamplingSuppresses) {
   }
 }
 
+// N-step sampling of a harmonic set (the Kinect v2's {10, 2, 15} with N = 3, and others):
+// the measured planes hold c_j, the others 0.
+TEST(Demodulator, NStepSamplingOfAHarmonicSetRecoversTheMeasuredMoments) {
+  const ImageGeometry geometry{7, 5};
+  std::mt19937_64 rng(11);
+  for (int buckets : {3, 5, 8}) {
+    ScheduleOptions o;
+    o.base_frequency_hz = 8e6;
+    o.order = 15;
+    o.harmonics = {10, 2, 15};
+    o.buckets = buckets;
+    o.sampling = SamplingScheme::kFourBucket;
+    o.zeroth = ZerothScheme::kEstimated;
+    absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(o);
+    ASSERT_THAT(schedule.status(), IsOk());
+    const Scene scene = RandomScene(geometry, 15, rng);
+    Demodulator demodulator = MakeDemodulator(*schedule, geometry);
+    MomentImage out;
+    ASSERT_THAT(demodulator.Demodulate(SynthesizeCycle(*schedule, scene, 0, 0.0, rng), &out),
+                IsOk());
+    ASSERT_EQ(out.order, 15);
+    for (int j = 1; j <= 15; ++j) {
+      const bool measured = j == 2 || j == 10 || j == 15;
+      for (int64_t p = 0; p < geometry.pixel_count(); ++p) {
+        const Complex want = measured ? scene.c[j][p] : Complex(0.0, 0.0);
+        EXPECT_NEAR(out.real_plane(j)[p], want.real(), kFloatTolerance) << buckets << " " << j;
+        EXPECT_NEAR(out.imag_plane(j)[p], want.imag(), kFloatTolerance) << buckets << " " << j;
+      }
+    }
+  }
+}
+
+// What N-step sampling aliases (acquisition.h, ScheduleOptions::buckets): an effective
+// modulation cos(x) + a_h cos(h x) puts the h-th harmonic into the estimate of c_1 exactly when
+// h = +-1 (mod N). Three steps alias the 2nd harmonic and cancel the 3rd; four steps the reverse.
+TEST(Demodulator, NStepSamplingAliasesExactlyTheHarmonicsCongruentToPlusMinusOne) {
+  const ImageGeometry geometry{1, 1};
+  const double tau_phase = 1.0;
+  for (int buckets : {3, 4, 5}) {
+    for (int h = 2; h <= 6; ++h) {
+      ScheduleOptions o;
+      o.order = 1;
+      o.buckets = buckets;
+      o.sampling = SamplingScheme::kFourBucket;
+      o.zeroth = ZerothScheme::kEstimated;
+      absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(o);
+      ASSERT_THAT(schedule.status(), IsOk());
+      std::vector<RawFrame> frames;
+      for (const ExposureConfig& config : schedule->exposures()) {
+        const double x = tau_phase - config.phase_shift_rad;
+        RawFrame frame;
+        frame.config = config;
+        frame.geometry = geometry;
+        frame.pixels = {static_cast<float>(10.0 + std::cos(x) + 0.3 * std::cos(h * x))};
+        frames.push_back(frame);
+      }
+      Demodulator demodulator = MakeDemodulator(*schedule, geometry);
+      MomentImage out;
+      ASSERT_THAT(demodulator.Demodulate(frames, &out), IsOk());
+      const double error =
+          std::abs(Complex(out.real_plane(1)[0], out.imag_plane(1)[0]) - std::polar(1.0, tau_phase));
+      const bool aliases = (h - 1) % buckets == 0 || (h + 1) % buckets == 0;
+      if (aliases) {
+        EXPECT_NEAR(error, 0.3, 0.3 * 1e-4) << "N = " << buckets << ", h = " << h;
+      } else {
+        EXPECT_LT(error, 1e-5) << "N = " << buckets << ", h = " << h;
+      }
+    }
+  }
+}
+
 TEST(Demodulator, RefusesIncompleteDuplicatedForeignAndMismatchedCycles) {
   const ImageGeometry geometry{4, 3};
   std::mt19937_64 rng(2);

@@ -68,7 +68,7 @@ void ForwardModel::EvaluatePixel(const ReturnPlanes& returns, int64_t p, Exposur
   const double delay = pattern_.delay_s[p];
   for (const FrequencyGroup& group : groups_) {
     const double nu = group.frequency_hz;
-    double sums[4] = {0.0, 0.0, 0.0, 0.0};  // per exposure of the group (four buckets)
+    double sums[kMaxPhaseBuckets] = {};  // per exposure of the group (its N buckets)
     const int count = static_cast<int>(group.exposures.size());
     for (int r = 0; r < returns.max_returns; ++r) {
       const int64_t i = returns.index(r, p);

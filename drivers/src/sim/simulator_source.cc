@@ -153,11 +153,11 @@ class SimulatorSource : public CaptureSource {
         input.light_gain = u < 0.5 ? kJumpLow[0] + 2.0 * u * (kJumpLow[1] - kJumpLow[0])
                                    : kJumpHigh[0] + (2.0 * u - 1.0) * (kJumpHigh[1] - kJumpHigh[0]);
         if (input.modulated) {
-          // Buckets of one frequency are consecutive: 0, pi/2, pi, 3*pi/2.
-          const int bucket =
-              static_cast<int>(std::lround(config.phase_shift_rad / (0.5 * std::numbers::pi))) % 4;
-          const int slip = 1 + static_cast<int>(random.Uniform() * 3.0);
-          source = e - bucket + (bucket + slip) % 4;
+          // Buckets of one frequency are consecutive: 2*pi*k/N, k = 0..N-1.
+          const int n = schedule_.options().buckets;
+          const int bucket = BucketIndex(config.phase_shift_rad, n);
+          const int slip = 1 + static_cast<int>(random.Uniform() * (n - 1));
+          source = e - bucket + (bucket + slip) % n;
         } else if (!config.illumination) {
           input.illuminated = true;
           source = e - 1;  // the dark frame follows the lit one: the same light

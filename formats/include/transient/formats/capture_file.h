@@ -12,7 +12,9 @@
 //                           sampling (string: "four-bucket", "arccos", "harmonic-cancellation");
 //                           phase_steps (int64, n_phi); zeroth (string: "pair", "proxy",
 //                           "estimated"); proxy_frequency_hz (float64, Hz); exposure_s (float64,
-//                           s); takes (int64); raw_frames_per_frame (int64, derived, checked)
+//                           s); takes (int64); buckets (int64, N-step; absent = 4);
+//                           harmonics (string "10,2,15", capture order; absent = 1..order);
+//                           raw_frames_per_frame (int64, derived, checked)
 //   /frames                 attribute saturation_level (float64, sensor units; inf = none)
 //   /frames/pixels          uint16 or float32 [N, H, W], sensor units (DN), NaN = unreadable
 //                           pixel (float32 only); chunked [1, H, W], optionally deflate+shuffle;

@@ -40,9 +40,25 @@ absl::string_view ZerothSchemeName(ZerothScheme scheme);
 absl::StatusOr<SamplingScheme> ParseSamplingScheme(absl::string_view name);
 absl::StatusOr<ZerothScheme> ParseZerothScheme(absl::string_view name);
 
+// Phase steps of one harmonic: the bucket phase shifts 2*pi*k/N, k = 0..N-1.
+inline constexpr int kMinPhaseBuckets = 3;
+inline constexpr int kMaxPhaseBuckets = 16;
+
 struct ScheduleOptions {
   double base_frequency_hz = 23e6;  // f; harmonic j is modulated at j*f
-  int order = 3;                    // m, 1 <= m <= kMaxOrder
+  int order = 3;                    // m, 1 <= m <= kMaxOrder; with `harmonics`, max(harmonics)
+  // The harmonics measured, in capture order, when not all of 1..m: a real camera's set, e.g.
+  // the Kinect v2's {10, 2, 15} of 8 MHz (80, 16, 120 MHz). Empty: 1..order. Distinct, each in
+  // 1..kMaxOrder. The moment reconstruction (MESE, Pisarenko, slices, cumulative, bounds) needs
+  // every harmonic 1..m (thesis §8.2: the Toeplitz matrix of c_0..c_m); on a schedule without
+  // them only the products of phase_unwrapping.h can be computed (HasAllHarmonics()).
+  std::vector<int> harmonics = {};
+  // N equally spaced phase steps per harmonic (2*pi*k/N): 4 is four-bucket sampling, 3 the
+  // Kinect v2's 120-degree steps. N-step demodulation Z = (2/N) sum_k M_k exp(i*2*pi*k/N) cancels
+  // the offset and every harmonic h of the effective modulation except h = 1 (mod N) and
+  // h = -1 (mod N), which alias into the estimate: N = 4 keeps the 3rd (conjugated) and 5th, N = 3
+  // the 2nd (conjugated) and 4th. kMinPhaseBuckets..kMaxPhaseBuckets.
+  int buckets = 4;
   SamplingScheme sampling = SamplingScheme::kArccos;
   int phase_steps = 8;  // n_phi of arccos / harmonic cancellation, 1..64; four-bucket uses 1
   ZerothScheme zeroth = ZerothScheme::kUnmodulatedPair;
@@ -52,7 +68,26 @@ struct ScheduleOptions {
 
   // Names the first violated constraint, e.g. "order = 0. Violated constraint: 1 <= order <= 16".
   absl::Status Validate() const;
+
+  // The harmonics measured in capture order: `harmonics`, or 1..order.
+  std::vector<int> MeasuredHarmonics() const;
+  // Every harmonic 1..order is measured: the moment reconstruction can run.
+  bool HasAllHarmonics() const;
+  // Why the moment reconstruction cannot run on this schedule, for a FailedPrecondition:
+  // "the schedule measures harmonics 2, 10, 15 of 8 MHz; <what> needs every harmonic 1..15
+  // (missing 1, 3-9, 11-14)". Empty when HasAllHarmonics().
+  std::string MissingHarmonicsText(absl::string_view what) const;
 };
+
+// Bucket k's phase shift of N-step sampling, 2*pi*k/N, and the bucket of a phase shift (the
+// nearest k, modulo N).
+double BucketPhaseShift(int k, int buckets);
+int BucketIndex(double phase_shift_rad, int buckets);
+
+// ScheduleOptions::harmonics as text, "10,2,15", and back (ParseHarmonicList: InvalidArgument
+// naming the bad entry). The order of the list is kept.
+std::string FormatHarmonicList(std::span<const int> harmonics);
+absl::StatusOr<std::vector<int>> ParseHarmonicList(absl::string_view text);
 
 // One sub-exposure of a modulated exposure: the phase shift added to the bucket's and the share
 // of the exposure time it gets. The shares of one exposure sum to 1.
@@ -66,7 +101,8 @@ struct ExposureConfig {
   int harmonic = 0;            // j of c_j this exposure contributes to; 0 for the zeroth moment
   double frequency_hz = 0.0;   // modulation frequency: j*f, the proxy frequency, or 0 (unmodulated)
   double phase_shift_rad = 0;  // bucket offset between illumination and sensor modulation:
-                               // 0, pi/2, pi or 3*pi/2; 0 for unmodulated exposures
+                               // 2*pi*k/N in [0, 2*pi) (four-bucket: 0, pi/2, pi, 3*pi/2); 0 for
+                               // unmodulated exposures
   double exposure_s = 0.0;     // integration time
   bool illumination = true;    // active illumination on
   int take = 0;                // 0 <= take < takes
@@ -87,7 +123,8 @@ struct RawFrame {
 };
 
 // The exposures of one capture cycle, in capture order: for each take, the zeroth-moment
-// exposures (if measured), then harmonics j = 1..m, each with buckets 0, pi/2, pi, 3*pi/2.
+// exposures (if measured), then the measured harmonics j (1..m, or `harmonics` in its order),
+// each with buckets 2*pi*k/N, k = 0..N-1 (N = 4: 0, pi/2, pi, 3*pi/2).
 // Every modulated exposure uses the same sub-exposure split.
 class AcquisitionSchedule {
  public:

@@ -67,15 +67,16 @@ struct DemodulationReport {
 //
 // Convention (the contract with the sources, drivers/): an exposure of harmonic j with bucket
 // phase shift beta measures, per pixel, M(beta) = offset + Re(exp(-i*beta) * g * c_j) with
-// g = schedule.nominal_gain() = sum_k w_k exp(-i*theta_k) over the sub-exposures. The
-// four-bucket phasor Z = (M(0) - M(pi))/2 + i*(M(pi/2) - M(3pi/2))/2 equals g*c_j, so
-// c_j = Z / g (thesis §8.3.1: four-bucket differences cancel the offset and even harmonics;
+// g = schedule.nominal_gain() = sum_k w_k exp(-i*theta_k) over the sub-exposures. The N-step
+// phasor Z = (2/N) sum_k M(2*pi*k/N) exp(i*2*pi*k/N) equals g*c_j (for N = 4 the four-bucket
+// Z = (M(0) - M(pi))/2 + i*(M(pi/2) - M(3pi/2))/2), so c_j = Z / g (thesis §8.3.1: four-bucket differences cancel the offset and even harmonics;
 // arccos sampling, eq. 8.7, and harmonic cancellation make the rest sinusoidal). c_0:
 //  - kUnmodulatedPair: c_0 = M(illumination on) - M(illumination off), both unmodulated;
-//  - kLowFrequencyProxy: c_0 = |Z / g| of the four buckets at the proxy frequency. The modulus
+//  - kLowFrequencyProxy: c_0 = |Z / g| of the N buckets at the proxy frequency. The modulus
 //    needs no phase calibration; for returns within r metres it underestimates c_0 by a
 //    factor of at most 1 - cos(2*pi*f_proxy*2r/c) (thesis §8.3.3: 900 kHz, 333 m wavelength);
 //  - kEstimated: plane 0 holds 0; solve with ZerothMoment::kEstimate.
+// Planes of harmonics the schedule does not measure (ScheduleOptions::harmonics) hold 0.
 // Output moments are uncalibrated (apply calibration.h next). A pixel that is NaN or at or above
 // its frame's saturation_level in any frame used is invalid (valid = 0, kFlagSaturated) and holds
 // NaN in every plane.
@@ -133,9 +134,12 @@ class Demodulator {
   int takes_ = 1;
   Complex inverse_gain_{1.0, 0.0};
   std::vector<int> exposure_plane_;  // moment plane j fed by exposure e (within a take)
-  // Exposure (within a take) of plane j's bucket b (phase shift b*pi/2), or of c_0's
-  // illumination-on ([0][0]) and -off ([0][1]) pair; -1 where the schedule has none.
-  std::vector<std::array<int, 4>> plane_exposures_;
+  // Exposure (within a take) of plane j's bucket k (phase shift 2*pi*k/N), or of c_0's
+  // illumination-on ([0][0]) and -off ([0][1]) pair; -1 where the schedule has none (planes of
+  // harmonics it does not measure).
+  std::vector<std::array<int, kMaxPhaseBuckets>> plane_exposures_;
+  // (2/N) exp(i*2*pi*k/N): bucket k's share of the N-step phasor.
+  std::vector<float> bucket_cos_, bucket_sin_;
   std::vector<int64_t> sample_pixels_;  // pixels the robust scores look at
 
   // Per-call scratch, kept to reuse allocations.
