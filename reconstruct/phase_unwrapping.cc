@@ -1,0 +1,183 @@
+// Range by single-return maximum-likelihood phase unwrapping (phase_unwrapping.h).
+#include "transient/reconstruct/phase_unwrapping.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "transient/reconstruct/moments.h"
+
+namespace transient {
+namespace {
+
+using ComplexF = std::complex<float>;
+
+// S(theta), S'(theta), S''(theta) of the matched filter at theta.
+struct Score {
+  double value, slope, curvature;
+};
+
+Score Evaluate(std::span<const std::complex<double>> c, std::span<const int> harmonics,
+               double theta) {
+  Score s{0.0, 0.0, 0.0};
+  for (size_t i = 0; i < c.size(); ++i) {
+    const double j = harmonics[i];
+    const std::complex<double> z = c[i] * std::polar(1.0, -j * theta);
+    s.value += z.real();
+    s.slope += j * z.imag();
+    s.curvature -= j * j * z.real();
+  }
+  return s;
+}
+
+}  // namespace
+
+absl::Status UnwrapOptions::Validate() const {
+  auto violated = [](absl::string_view field, auto value, absl::string_view rule) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, " = ", value, ". Violated constraint: ", rule));
+  };
+  if (!std::isfinite(base_frequency_hz) || base_frequency_hz <= 0.0) {
+    return violated("base_frequency_hz", base_frequency_hz, "finite and > 0");
+  }
+  if (harmonics.empty() || static_cast<int>(harmonics.size()) > kMaxOrder) {
+    return violated("harmonics", absl::StrJoin(harmonics, ","),
+                    absl::StrCat("1 to ", kMaxOrder, " harmonics"));
+  }
+  for (int j : harmonics) {
+    if (j < 1 || j > kMaxOrder) {
+      return violated("harmonics", absl::StrJoin(harmonics, ","),
+                      absl::StrCat("each in 1..", kMaxOrder));
+    }
+  }
+  if (!(min_amplitude >= 0.0) || !std::isfinite(min_amplitude)) {
+    return violated("min_amplitude", min_amplitude, "finite and >= 0");
+  }
+  if (!(ambiguity_margin >= 0.0 && ambiguity_margin <= 2.0)) {
+    return violated("ambiguity_margin", ambiguity_margin, "0 <= ambiguity_margin <= 2");
+  }
+  if (newton_steps < 0 || newton_steps > 16) {
+    return violated("newton_steps", newton_steps, "0 <= newton_steps <= 16");
+  }
+  return absl::OkStatus();
+}
+
+UnwrappedPixel UnwrapPixel(std::span<const ComplexF> moments, const UnwrapOptions& options) {
+  assert(options.Validate().ok());
+  assert(moments.size() == options.harmonics.size());
+  const std::span<const int> harmonics = options.harmonics;
+  const size_t count = harmonics.size();
+  std::complex<double> c[kMaxOrder];
+  double total = 0.0;  // sum |c_j|
+  size_t top = 0;      // index of the highest harmonic J
+  for (size_t i = 0; i < count; ++i) {
+    c[i] = std::complex<double>(moments[i].real(), moments[i].imag());
+    total += std::abs(c[i]);
+    if (harmonics[i] > harmonics[top]) top = i;
+  }
+  UnwrappedPixel out;
+  out.amplitude = total / static_cast<double>(count);
+  if (!std::isfinite(total)) {
+    out.range_m = out.amplitude = out.confidence = kNaN;
+    return out;
+  }
+  if (total == 0.0 || out.amplitude < options.min_amplitude) {
+    out.flags = kFlagLowAmplitude;
+    out.range_m = out.confidence = kNaN;
+    return out;
+  }
+
+  // The J candidates theta_n = (arg c_J + 2*pi*n) / J, scored by rotating each c_j by the
+  // constant step exp(-i*j*2*pi/J) from one candidate to the next.
+  const int highest = harmonics[top];
+  const double theta0 = std::arg(c[top]) / highest;
+  std::complex<double> z[kMaxOrder], step[kMaxOrder];
+  for (size_t i = 0; i < count; ++i) {
+    z[i] = c[i] * std::polar(1.0, -harmonics[i] * theta0);
+    step[i] = std::polar(1.0, -kTwoPi * harmonics[i] / highest);
+  }
+  double best = -std::numeric_limits<double>::infinity(), second = best;
+  int best_n = 0;
+  for (int n = 0; n < highest; ++n) {
+    double score = 0.0;
+    for (size_t i = 0; i < count; ++i) {
+      score += z[i].real();
+      z[i] *= step[i];
+    }
+    if (score > best) {
+      second = best;
+      best = score;
+      best_n = n;
+    } else if (score > second) {
+      second = score;
+    }
+  }
+
+  // Newton steps towards the peak of S near the best candidate, each at most a quarter of the
+  // candidates' spacing so that the refinement cannot jump to another candidate's peak.
+  double theta = theta0 + kTwoPi * best_n / highest;
+  const double max_step = 0.25 * kTwoPi / highest;
+  for (int k = 0; k < options.newton_steps; ++k) {
+    const Score s = Evaluate({c, count}, harmonics, theta);
+    if (!(s.curvature < 0.0)) break;  // not at a maximum: keep the candidate
+    theta -= std::clamp(s.slope / s.curvature, -max_step, max_step);
+  }
+  const double refined = Evaluate({c, count}, harmonics, theta).value;
+  if (refined > best) best = refined;
+
+  out.confidence = best / total;
+  if (count > 1 && highest > 1 && (best - second) / total < options.ambiguity_margin) {
+    out.flags |= kFlagAmbiguous;
+    out.range_m = kNaN;
+    return out;
+  }
+  out.range_m = PhaseToRange(WrapPhase(theta), options.base_frequency_hz);
+  return out;
+}
+
+absl::Status UnwrapImage(const MomentImage& moments, const UnwrapOptions& options,
+                         std::vector<float>* range_m, std::vector<float>* amplitude,
+                         std::vector<float>* confidence, std::vector<uint8_t>* flags) {
+  if (absl::Status status = options.Validate(); !status.ok()) return status;
+  const int highest = *std::max_element(options.harmonics.begin(), options.harmonics.end());
+  if (moments.order < highest) {
+    return absl::InvalidArgumentError(absl::StrCat("moment image of order m = ", moments.order,
+                                                   ". Violated constraint: m >= ", highest,
+                                                   ", the highest harmonic measured"));
+  }
+  const int64_t pixels = moments.geometry.pixel_count();
+  const size_t n = static_cast<size_t>(pixels);
+  range_m->assign(n, kNaNf);
+  amplitude->assign(n, kNaNf);
+  confidence->assign(n, kNaNf);
+  flags->assign(n, 0);
+  const size_t count = options.harmonics.size();
+#pragma omp parallel for schedule(static) if (pixels > 50000)
+  for (int64_t p = 0; p < pixels; ++p) {
+    const size_t q = static_cast<size_t>(p);
+    uint8_t f = moments.flags.empty() ? 0 : (moments.flags[q] & kMomentImageFlags);
+    if (!moments.valid.empty() && moments.valid[q] == 0) {
+      (*flags)[q] = static_cast<uint8_t>(f | kFlagInvalidInput);
+      continue;
+    }
+    ComplexF c[kMaxOrder];
+    for (size_t i = 0; i < count; ++i) {
+      const int j = options.harmonics[i];
+      c[i] = ComplexF(moments.real_plane(j)[p], moments.imag_plane(j)[p]);
+    }
+    const UnwrappedPixel u = UnwrapPixel({c, count}, options);
+    if (!std::isfinite(u.amplitude)) {
+      (*flags)[q] = static_cast<uint8_t>(f | kFlagInvalidInput);
+      continue;
+    }
+    (*flags)[q] = static_cast<uint8_t>(f | u.flags);
+    (*amplitude)[q] = static_cast<float>(u.amplitude);
+    (*confidence)[q] = static_cast<float>(u.confidence);
+    (*range_m)[q] = static_cast<float>(u.range_m);
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace transient
