@@ -1,6 +1,7 @@
 // The products of a solved frame, computed once for everything its consumers asked for.
 #include "transient/reconstruct/frame_products.h"
 
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -153,6 +154,39 @@ std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const Solve
     }
   }
   out->solved = std::move(solved);
+  return out;
+}
+
+std::shared_ptr<const FrameProducts> ComputeUnwrappedProducts(const MomentImage& moments,
+                                                              const CameraInfo& camera,
+                                                              const UnwrapOptions& unwrap,
+                                                              const ProductNeeds& needs,
+                                                              uint64_t sequence) {
+  auto out = std::make_shared<FrameProducts>();
+  out->sequence = sequence;
+  out->geometry = moments.geometry;
+  out->order = moments.order;
+  out->base_frequency_hz = unwrap.base_frequency_hz;
+  std::vector<float> amplitude;
+  const absl::Status status =
+      UnwrapImage(moments, unwrap, &out->range_m, &amplitude, &out->confidence, &out->flags);
+  assert(status.ok());
+  (void)status;
+  bool moments_of_depth = false;
+  for (const MomentDepthSpec& spec : needs.moment_depth) moments_of_depth |= !spec.from_returns;
+  if (needs.depth || moments_of_depth) {
+    out->depth_m.resize(out->range_m.size());
+    DepthFromRange(moments.geometry, camera.intrinsics, out->range_m, out->depth_m);
+  }
+  if (needs.amplitude) out->amplitude = std::move(amplitude);
+  for (const MomentDepthSpec& spec : needs.moment_depth) {
+    if (spec.from_returns) continue;  // needs the Pisarenko returns: refused by the caller
+    absl::StatusOr<MomentDepthMapBuilder> builder =
+        MomentDepthMapBuilder::Create(moments.geometry, spec.MapOptions());
+    if (!builder.ok()) continue;
+    auto map = std::make_shared<MomentDepthMap>();
+    if (builder->Build(out->depth_m, map.get()).ok()) out->moment_depth[spec] = std::move(map);
+  }
   return out;
 }
 

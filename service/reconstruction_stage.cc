@@ -52,6 +52,14 @@ absl::StatusOr<std::shared_ptr<const FrameProducts>> ReconstructionStage::Run(
       !status.ok()) {
     return status;
   }
+  const ScheduleOptions& schedule = cycle.schedule->options();
+  if (!schedule.HasAllHarmonics()) {
+    // A camera's fixed frequencies (the Kinect v2): no moment reconstruction, range by
+    // unwrapping; the subscriptions that need more were refused (PlanStream).
+    const UnwrapOptions unwrap{.base_frequency_hz = schedule.base_frequency_hz,
+                               .harmonics = schedule.MeasuredHarmonics()};
+    return ComputeUnwrappedProducts(moments_, camera_, unwrap, inputs.needs, sequence_++);
+  }
   std::shared_ptr<SolvedImage> solved = RecycledSolvedImage();
   pipeline_->Solve(moments_, solved.get());
   const ProductOptions options{.base_frequency_hz = cycle.schedule->options().base_frequency_hz,

@@ -31,6 +31,7 @@ using ::transient::wire::CheckEncoding;
 using ::transient::wire::EncodeBytePlane;
 using ::transient::wire::EncodeMomentDepth;
 using ::transient::wire::ImageKind;
+using ::transient::wire::ProductSpec;
 
 // What the daemon refuses and what clients are told it refuses are one number.
 static_assert(wire::kMaxSlices == kMaxSlices);
@@ -80,6 +81,36 @@ struct StreamPlan {
   int queue_frames = kDefaultQueueFrames;
 };
 
+// FailedPrecondition for a product the schedule cannot serve (ProductSpec::needs): the moment
+// reconstruction's on a camera's harmonic set, naming the missing harmonics, and the
+// unwrapping's confidence on a schedule with every harmonic.
+absl::Status CheckScheduleServes(std::span<const v1::Product> products, bool moment_depth_of_returns,
+                                 const ScheduleOptions& schedule) {
+  const bool all = schedule.HasAllHarmonics();
+  for (v1::Product product : products) {
+    const wire::ProductSpec& spec = *wire::FindProduct(product);
+    ProductSpec::Needs needs = spec.needs;
+    if (product == v1::MOMENT_DEPTH && moment_depth_of_returns) {
+      needs = ProductSpec::Needs::kAllHarmonics;  // of the Pisarenko returns
+    }
+    if (needs == ProductSpec::Needs::kAllHarmonics && !all) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          v1::Product_Name(product), ": ",
+          schedule.MissingHarmonicsText("the moment reconstruction"),
+          ". This camera serves RANGE, DEPTH, AMPLITUDE, FLAGS, CONFIDENCE and MOMENT_DEPTH of "
+          "the depth, by phase unwrapping; transient video needs a programmable camera"));
+    }
+    if (needs == ProductSpec::Needs::kHarmonicSet && all) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          v1::Product_Name(product),
+          ": the confidence of phase unwrapping is served for a camera's harmonic set (e.g. the "
+          "Kinect v2's); this schedule measures every harmonic 1..",
+          schedule.order, ", whose range comes from the moment reconstruction"));
+    }
+  }
+  return absl::OkStatus();
+}
+
 absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline& pipeline) {
   StreamPlan plan;
   if (r.products_size() == 0) {
@@ -94,6 +125,11 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
     const auto product = static_cast<v1::Product>(p);
     if (!plan.request.products.Has(product)) plan.products.push_back(product);
     plan.request.products.Add(product);
+  }
+  if (absl::Status status = CheckScheduleServes(plan.products, r.moment_depth().from_returns(),
+                                                pipeline.schedule().options());
+      !status.ok()) {
+    return status;
   }
   const ImageGeometry sensor = pipeline.camera().geometry;
   absl::StatusOr<PixelRect> rect = ResolveRoi(r.roi(), sensor);
@@ -247,6 +283,9 @@ absl::StatusOr<bool> EncodeProducts(const StreamPlan& plan, const FrameProducts&
           added = AddFloat(plan, products, products.indirect, ImageKind::kIndirect, frame);
         }
         break;
+      case v1::CONFIDENCE:
+        added = AddFloat(plan, products, products.confidence, ImageKind::kConfidence, frame);
+        break;
       case v1::MOMENT_DEPTH: {
         auto it = products.moment_depth.find(plan.request.moment_depth);
         if (it == products.moment_depth.end()) return false;
@@ -359,9 +398,13 @@ class TransientServer::Service final : public v1::Transient::Service {
     s->set_takes(static_cast<uint32_t>(o.takes));
     s->set_raw_frames_per_frame(static_cast<uint32_t>(schedule.raw_frames_per_frame()));
     s->set_description(schedule.Describe());
+    for (int j : o.harmonics) s->add_harmonics(static_cast<uint32_t>(j));
+    s->set_buckets(static_cast<uint32_t>(o.buckets));
     info->set_calibration(pipeline_->calibration_origin());
     for (int p = v1::Product_MIN + 1; p <= v1::Product_MAX; ++p) {
-      if (v1::Product_IsValid(p)) info->add_products(static_cast<v1::Product>(p));
+      if (!v1::Product_IsValid(p)) continue;
+      const v1::Product product = static_cast<v1::Product>(p);
+      if (CheckScheduleServes({&product, 1}, false, o).ok()) info->add_products(product);
     }
     info->set_version(version_);
     info->set_state(ToProto(pipeline_->state()));
@@ -573,6 +616,11 @@ class TransientServer::Service final : public v1::Transient::Service {
     if (!(bounds_r > 0.0 && bounds_r < 1.0)) {
       return absl::InvalidArgumentError(
           absl::StrCat("bounds_r = ", r.bounds_r(), ": expected 0 < r < 1 (0 = 0.9)"));
+    }
+    if (latest->solved == nullptr) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "GetPixel: ", pipeline_->schedule().options().MissingHarmonicsText(
+                            "the per-pixel density plot of the moment reconstruction")));
     }
     const int64_t p = int64_t{r.y()} * g.width + r.x();
     const SolvedImage& solved = *latest->solved;

@@ -31,25 +31,34 @@ constexpr ImageSpec kImages[] = {
     {ImageKind::kIndirect, v1::DIRECT_INDIRECT, "indirect", ImageIndex::kNone, units::kSensor, 1},
     {ImageKind::kMomentDepth, v1::MOMENT_DEPTH, "moment_depth", ImageIndex::kNone,
      units::kDimensionless, 4},
+    {ImageKind::kConfidence, v1::CONFIDENCE, "confidence", ImageIndex::kNone,
+     units::kDimensionless, 1},
 };
 
 constexpr std::span<const ImageSpec> ImagesOf(ImageKind first, size_t count) {
   return std::span<const ImageSpec>(kImages).subspan(static_cast<size_t>(first), count);
 }
 
+constexpr ProductSpec::Needs kMoments = ProductSpec::Needs::kAllHarmonics;
+
 constexpr ProductSpec kProducts[] = {
     {v1::RANGE, "range", ImagesOf(ImageKind::kRange, 1), EncodingRule::kFloatOrMillimetres},
     {v1::DEPTH, "depth", ImagesOf(ImageKind::kDepth, 1), EncodingRule::kFloatOrMillimetres},
     {v1::AMPLITUDE, "amplitude", ImagesOf(ImageKind::kAmplitude, 1), EncodingRule::kFloat},
-    {v1::C0, "c0", ImagesOf(ImageKind::kC0, 1), EncodingRule::kFloat},
+    {v1::C0, "c0", ImagesOf(ImageKind::kC0, 1), EncodingRule::kFloat, kMoments},
     {v1::FLAGS, "flags", ImagesOf(ImageKind::kFlags, 1), EncodingRule::kFlags},
-    {v1::MOMENT_STATE, "moment_state", ImagesOf(ImageKind::kCReal, 4), EncodingRule::kFloat},
-    {v1::SLICES, "slices", ImagesOf(ImageKind::kSlice, 1), EncodingRule::kFloat},
-    {v1::CUMULATIVE, "cumulative", ImagesOf(ImageKind::kCumulative, 1), EncodingRule::kFloat},
+    {v1::MOMENT_STATE, "moment_state", ImagesOf(ImageKind::kCReal, 4), EncodingRule::kFloat,
+     kMoments},
+    {v1::SLICES, "slices", ImagesOf(ImageKind::kSlice, 1), EncodingRule::kFloat, kMoments},
+    {v1::CUMULATIVE, "cumulative", ImagesOf(ImageKind::kCumulative, 1), EncodingRule::kFloat,
+     kMoments},
     {v1::DIRECT_INDIRECT, "direct_indirect", ImagesOf(ImageKind::kDirect, 2),
-     EncodingRule::kFloat},
+     EncodingRule::kFloat, kMoments},
+    // Of the depth on any schedule; of the Pisarenko returns (from_returns) only with kMoments.
     {v1::MOMENT_DEPTH, "moment_depth", ImagesOf(ImageKind::kMomentDepth, 1),
      EncodingRule::kMomentDepth},
+    {v1::CONFIDENCE, "confidence", ImagesOf(ImageKind::kConfidence, 1), EncodingRule::kFloat,
+     ProductSpec::Needs::kHarmonicSet},
 };
 
 constexpr EncodingChoice kEncodingChoices[] = {

@@ -619,7 +619,7 @@ TEST(TransientClientBinary, BadProductExitsWithTwoAndOneErrorLine) {
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_EQ(result.err,
             "error: --products: unknown product 'bogus'; valid: range, depth, amplitude, c0, "
-            "flags, moment_state, slices, cumulative, direct_indirect, moment_depth\n");
+            "flags, moment_state, slices, cumulative, direct_indirect, moment_depth, confidence\n");
   EXPECT_EQ(result.out, "");
 }
 

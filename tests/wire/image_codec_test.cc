@@ -125,7 +125,7 @@ TEST(ResolveRoi, EmptySensorIsRejected) {
 TEST(CheckEncoding, MillimetresOnlyForLengthsAndFlagsAndMomentDepthAcceptAnything) {
   const std::vector<v1::Product> products = {
       v1::RANGE,        v1::DEPTH,  v1::AMPLITUDE,  v1::C0,          v1::FLAGS,
-      v1::MOMENT_STATE, v1::SLICES, v1::CUMULATIVE, v1::DIRECT_INDIRECT, v1::MOMENT_DEPTH};
+      v1::MOMENT_STATE, v1::SLICES, v1::CUMULATIVE, v1::DIRECT_INDIRECT, v1::MOMENT_DEPTH, v1::CONFIDENCE};
   const std::vector<v1::Encoding> encodings = {v1::ENCODING_UNSPECIFIED, v1::FLOAT32,
                                                v1::FLOAT16, v1::UINT16_MM};
   ASSERT_EQ(products.size(), static_cast<size_t>(v1::Product_ARRAYSIZE - 1));

@@ -39,7 +39,7 @@ TEST(ProductRegistry, EveryProductOfTheEnumHasOneRowInEnumOrder) {
 TEST(ProductRegistry, NamesAreTheCommandLineNamesAndFindTheirProduct) {
   EXPECT_THAT(ProductNames(),
               ElementsAre("range", "depth", "amplitude", "c0", "flags", "moment_state", "slices",
-                          "cumulative", "direct_indirect", "moment_depth"));
+                          "cumulative", "direct_indirect", "moment_depth", "confidence"));
   for (const ProductSpec& spec : Products()) {
     ASSERT_NE(FindProduct(spec.name), nullptr) << spec.name;
     EXPECT_EQ(FindProduct(spec.name)->product, spec.product);
@@ -61,7 +61,7 @@ TEST(ProductRegistry, EveryImageKindBelongsToExactlyOneProduct) {
       EXPECT_TRUE(stems.insert(image.stem).second) << image.stem;
     }
   }
-  EXPECT_EQ(seen.size(), static_cast<size_t>(ImageKind::kMomentDepth) + 1);
+  EXPECT_EQ(seen.size(), static_cast<size_t>(ImageKind::kConfidence) + 1);
 }
 
 TEST(ProductRegistry, ImagesAreNamedAsTheProtocolSays) {

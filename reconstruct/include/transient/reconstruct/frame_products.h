@@ -12,6 +12,7 @@
 
 #include "transient/reconstruct/camera_model.h"
 #include "transient/reconstruct/moment_depth_map.h"
+#include "transient/reconstruct/phase_unwrapping.h"
 #include "transient/reconstruct/reconstructor.h"
 
 namespace transient {
@@ -71,13 +72,18 @@ struct FrameProducts {
   ImageGeometry geometry;
   int order = 0;
   double base_frequency_hz = 0.0;
-  std::shared_ptr<const SolvedImage> solved;        // always: the moment state, per-pixel plots
+  // The moment state, per-pixel plots; always, except for a schedule without every harmonic
+  // 1..m (ComputeUnwrappedProducts), which has none.
+  std::shared_ptr<const SolvedImage> solved;
   std::shared_ptr<const PisarenkoImage> pisarenko;  // when anything above needed it
   // PixelFlag bits: the solver's, and kFlagNoReturn where range_m is NaN on a valid pixel
   // (when the range was computed).
   std::vector<uint8_t> flags;
   std::vector<float> range_m, depth_m, amplitude, c0, direct, indirect;  // NaN = none
   std::vector<float> pisarenko_range_m;                                  // NaN = none
+  // Phase unwrapping's coherence of the frequencies (phase_unwrapping.h), with range_m from
+  // ComputeUnwrappedProducts only.
+  std::vector<float> confidence;
   std::map<std::vector<double>, SliceImages> slices;  // keyed by their phases, radians
   std::map<MomentDepthSpec, std::shared_ptr<const MomentDepthMap>> moment_depth;
 };
@@ -92,6 +98,18 @@ std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const Solve
                                                      const ProductOptions& options,
                                                      const ProductNeeds& needs,
                                                      uint64_t sequence = 0);
+
+// The products of a schedule whose harmonics are not all of 1..m (phase_unwrapping.h): range
+// (with confidence, kFlagAmbiguous and kFlagLowAmplitude), depth, amplitude (the mean |c_j| of
+// the measured harmonics), flags and moment depth maps of the depth. Needs that only the moment
+// reconstruction has (c_0, Pisarenko, slices, maps of returns) are the caller's to refuse
+// (ScheduleOptions::MissingHarmonicsText); they are left empty here. `unwrap` must pass
+// Validate() and `moments` have order >= its highest harmonic (asserted).
+std::shared_ptr<const FrameProducts> ComputeUnwrappedProducts(const MomentImage& moments,
+                                                              const CameraInfo& camera,
+                                                              const UnwrapOptions& unwrap,
+                                                              const ProductNeeds& needs,
+                                                              uint64_t sequence = 0);
 
 // Combines the solver's flags with a range estimate's kFlagNoReturn bit, so that a range plane
 // is NaN exactly where the flags say why: the range functions flag every NaN they leave on a

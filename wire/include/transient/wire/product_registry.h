@@ -33,6 +33,7 @@ enum class ImageKind {
   kDirect,       // DIRECT_INDIRECT
   kIndirect,     // DIRECT_INDIRECT
   kMomentDepth,  // MOMENT_DEPTH
+  kConfidence,   // CONFIDENCE
 };
 
 // How many images of one kind a frame holds, and how they are named.
@@ -68,6 +69,10 @@ struct ProductSpec {
   const char* name;  // `transient client --products`, file and folder names: "range"
   std::span<const ImageSpec> images;  // in the order a frame holds them
   EncodingRule encodings;
+  // Which schedules can serve it: the moment reconstruction's products need every harmonic
+  // 1..m (ScheduleOptions::HasAllHarmonics), phase unwrapping's need a schedule without.
+  enum class Needs { kAny, kAllHarmonics, kHarmonicSet };
+  Needs needs = Needs::kAny;
 };
 
 // At most this many SLICES (and as many CUMULATIVE) images in a frame: the daemon refuses a
