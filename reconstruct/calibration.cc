@@ -1,11 +1,13 @@
 // Per-pixel calibration against a Dirac at zero (thesis §8.3.2).
 #include "transient/reconstruct/calibration.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "absl/strings/str_format.h"
 #include "transient/reconstruct/moments.h"
 
@@ -98,6 +100,19 @@ absl::Status CheckCalibrationMatches(const CalibrationTable& calibration,
     return absl::FailedPreconditionError(absl::StrCat(
         "calibration sampling ", SamplingText(c), ", capture sampling ", SamplingText(schedule)));
   }
+  if (c.buckets != schedule.buckets) {
+    return absl::FailedPreconditionError(absl::StrCat("calibration with ", c.buckets,
+                                                      "-step sampling, capture with ",
+                                                      schedule.buckets, "-step"));
+  }
+  std::vector<int> calibrated = c.MeasuredHarmonics(), captured = schedule.MeasuredHarmonics();
+  std::sort(calibrated.begin(), calibrated.end());
+  std::sort(captured.begin(), captured.end());
+  if (calibrated != captured) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("calibration harmonics ", absl::StrJoin(calibrated, ", "),
+                     ", capture harmonics ", absl::StrJoin(captured, ", ")));
+  }
   // The reference of the factors (c_0 or |c_1|) depends on how c_0 is obtained.
   const bool same_zeroth = c.zeroth == schedule.zeroth &&
                            (c.zeroth != ZerothScheme::kLowFrequencyProxy ||
@@ -140,6 +155,11 @@ absl::StatusOr<CalibrationTable> EstimateCalibration(const MomentImage& dirac_at
   table.imag.assign(static_cast<size_t>((m + 1) * pixels), kNaNf);
   table.valid.assign(static_cast<size_t>(pixels), 0);
   const bool measured = schedule.zeroth != ZerothScheme::kEstimated;
+  // Without c_0 the reference is the modulus of the lowest harmonic measured (c_1 for 1..m).
+  const std::vector<int> harmonics = schedule.MeasuredHarmonics();
+  const int lowest = *std::min_element(harmonics.begin(), harmonics.end());
+  std::vector<bool> measured_harmonic(static_cast<size_t>(m) + 1, false);
+  for (int j : harmonics) measured_harmonic[static_cast<size_t>(j)] = true;
 
   Complex c[kMaxMoments];
   for (int64_t p = 0; p < pixels; ++p) {
@@ -151,17 +171,18 @@ absl::StatusOr<CalibrationTable> EstimateCalibration(const MomentImage& dirac_at
       finite = finite && std::isfinite(c[j].real()) && std::isfinite(c[j].imag());
     }
     if (!finite) continue;
-    const double reference = measured ? c[0].real() : std::abs(c[1]);
+    const double reference = measured ? c[0].real() : std::abs(c[lowest]);
     if (!(reference > min_signal) || !(reference > 0.0)) continue;
     // A harmonic that measured nothing cannot be corrected (its factor would be infinite).
     bool usable = true;
-    for (int j = 1; j <= m; ++j) usable = usable && std::abs(c[j]) > 0.0;
+    for (int j : harmonics) usable = usable && std::abs(c[j]) > 0.0;
     if (!usable) continue;
     table.valid[static_cast<size_t>(p)] = 1;
     table.real[static_cast<size_t>(p)] = 1.0f;
     table.imag[static_cast<size_t>(p)] = 0.0f;
     for (int j = 1; j <= m; ++j) {
-      const Complex k = reference / c[j];
+      // A harmonic the schedule does not measure holds 0 whatever its factor: 1.
+      const Complex k = measured_harmonic[static_cast<size_t>(j)] ? reference / c[j] : Complex(1.0);
       const size_t q = static_cast<size_t>(j * pixels + p);
       table.real[q] = static_cast<float>(k.real());
       table.imag[q] = static_cast<float>(k.imag());

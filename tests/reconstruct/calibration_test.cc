@@ -167,6 +167,54 @@ TEST(Calibration, WithEstimatedZerothOnlyRelativeGainsAreCorrected) {
   }
 }
 
+// A camera's harmonic set (the Kinect v2's 2, 10, 15 of 8 MHz, c_0 estimated): the factors of
+// the measured harmonics, referenced to the lowest one's modulus; the others' are 1.
+TEST(Calibration, AHarmonicSetIsReferencedToItsLowestHarmonic) {
+  const ImageGeometry geometry{5, 4};
+  const int64_t n = geometry.pixel_count();
+  std::mt19937_64 rng(27);
+  ScheduleOptions kinect = Schedule(ZerothScheme::kEstimated, 15);
+  kinect.harmonics = {10, 2, 15};
+  kinect.buckets = 3;
+  auto gain = RandomGains(n, 15, rng);
+  MomentImage dirac = MeasureDirac(geometry, gain, 0.0, rng);
+  for (int j = 1; j <= 15; ++j) {  // unmeasured harmonics hold 0, like the demodulator's
+    if (j == 2 || j == 10 || j == 15) continue;
+    std::fill_n(dirac.real_plane(j), n, 0.0f);
+    std::fill_n(dirac.imag_plane(j), n, 0.0f);
+  }
+  absl::StatusOr<CalibrationTable> table = EstimateCalibration(dirac, kinect, 1);
+  ASSERT_THAT(table.status(), IsOk());
+  const auto truth = SceneMoments(n, 15, rng);
+  MomentImage moments = FromComplex(geometry, Distort(truth, gain));
+  ASSERT_THAT(ApplyCalibration(*table, &moments), IsOk());
+  for (int64_t p = 0; p < n; ++p) {
+    ASSERT_EQ(table->valid[p], 1);
+    EXPECT_NEAR(std::abs(Complex(table->real[2 * n + p], table->imag[2 * n + p])), 1.0,
+                kFloatRelative);
+    EXPECT_EQ(table->real[5 * n + p], 1.0f);  // unmeasured
+    EXPECT_EQ(table->imag[5 * n + p], 0.0f);
+    for (int j : {2, 10, 15}) {
+      const Complex got(moments.real_plane(j)[p], moments.imag_plane(j)[p]);
+      EXPECT_LT(std::abs(got - std::abs(gain[2][p]) * truth[j][p]),
+                kFloatRelative * 2.0 * std::abs(truth[0][p]) * std::abs(gain[2][p]));
+    }
+  }
+  // Another number of steps or another set is another calibration.
+  ScheduleOptions other = kinect;
+  other.buckets = 4;
+  EXPECT_THAT(CheckCalibrationMatches(*table, other, geometry),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("calibration with 3-step sampling, capture with 4-step")));
+  other = kinect;
+  other.harmonics = {15, 2, 11};
+  EXPECT_THAT(CheckCalibrationMatches(*table, other, geometry),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("calibration harmonics 2, 10, 15, capture harmonics 2, 11, 15")));
+  other.harmonics = {15, 2, 10};  // the same set in another capture order
+  EXPECT_THAT(CheckCalibrationMatches(*table, other, geometry), IsOk());
+}
+
 TEST(Calibration, UnusablePixelsGetNaNFactorsAndInvalidateMoments) {
   const ImageGeometry geometry{4, 2};
   const int64_t n = geometry.pixel_count();

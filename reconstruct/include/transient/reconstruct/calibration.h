@@ -16,7 +16,9 @@ namespace transient {
 // Complex factors k_j per pixel, j = 0..m, as float32 planes like MomentImage.
 // k_j = reference / (measured c_j) for j >= 1, where the reference is the measured c_0 (zeroth
 // moment measured) or |measured c_1| (estimated; then only relative gains are corrected and
-// k_1 has unit modulus). k_0 = 1: c_0 defines the unit. An unusable calibration pixel (no
+// k_1 has unit modulus); on a schedule with a harmonic set (ScheduleOptions::harmonics) the
+// modulus of its lowest harmonic, and k_j = 1 for the harmonics it does not measure. A camera's
+// factory phase tables (the Kinect v2's P0) are such a table with unit moduli. k_0 = 1: c_0 defines the unit. An unusable calibration pixel (no
 // light, saturated, invalid) has valid[p] = 0 and NaN factors; moments it is applied to become
 // invalid.
 struct CalibrationTable {
@@ -35,7 +37,7 @@ struct CalibrationTable {
 // Refuses a calibration that does not fit moments measured with `schedule` on `geometry`:
 // FailedPrecondition naming both values, e.g. "calibration is for 163x120 pixels, the capture
 // has 320x240", "calibration f = 23 MHz, capture f = 20 MHz", "calibration m = 3, capture m = 4",
-// or a different sampling or zeroth-moment scheme.
+// or a different sampling, number of phase steps, harmonic set or zeroth-moment scheme.
 absl::Status CheckCalibrationMatches(const CalibrationTable& calibration,
                                      const ScheduleOptions& schedule, ImageGeometry geometry);
 
