@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <limits>
 
+#include "kinect2/kinect2_format.h"
 #include "random.h"
 
 namespace transient::sim {
@@ -16,8 +18,15 @@ Sensor::Sensor(const SimulatorOptions& options)
       full_well_(options.full_well),
       read_noise_(options.read_noise),
       snr_(options.snr),
-      adc_bits_(options.adc_bits) {
-  if (adc_bits_ == 0) {
+      adc_bits_(options.adc_bits),
+      adc_(options.adc) {
+  if (adc_ == Adc::kKinect2) {
+    // Signed samples, full well at the largest companded magnitude.
+    electrons_per_unit_ = full_well_ / kinect2::kMaxMagnitude;
+    black_level_ = 0.0;
+    saturation_level_ = kinect2::kSaturatedValue;
+    max_valid_ = kinect2::kMaxMagnitude;
+  } else if (adc_bits_ == 0) {
     electrons_per_unit_ = 1.0;
     black_level_ = 0.0;
     saturation_level_ = FLT_MAX;
@@ -89,6 +98,12 @@ void Sensor::ReadRow(const TapInput& input, int64_t offset, int count, uint64_t 
     }
     bool saturated = full;
     value = black_level_ + value * scale;
+    if (adc_ == Adc::kKinect2) {
+      const bool dead = i == 0 || i == count - 1;  // the camera's unreadable columns
+      out[i] = dead ? std::numeric_limits<float>::quiet_NaN()
+                    : saturated ? saturation_level_ : kinect2::QuantizeSample(value);
+      continue;
+    }
     if (adc_bits_ != 0) {
       value = std::floor(value + 0.5);
       saturated = saturated || value < 0.0 || value > max_valid_;

@@ -25,7 +25,8 @@ class Sensor {
   explicit Sensor(const SimulatorOptions& options);
 
   // Output value = black_level() + (A - B) / electrons_per_unit(): ADC counts (DN), or
-  // electrons with black level 0 for adc_bits = 0.
+  // electrons with black level 0 for adc_bits = 0; for adc = kinect2 signed companded samples
+  // (black level 0), NaN in the first and last column.
   double electrons_per_unit() const { return electrons_per_unit_; }
   double black_level() const { return black_level_; }
   // The value of a saturated pixel (a tap whose expected charge exceeds the full well, or the
@@ -50,6 +51,7 @@ class Sensor {
   double ambient_e_;  // electrons per exposure
   double full_well_, read_noise_, snr_;
   int adc_bits_;
+  Adc adc_;
   double electrons_per_unit_, black_level_;
   float saturation_level_;
   double max_valid_;  // the largest valid ADC code

@@ -1,5 +1,6 @@
 // The simulator's options: validation, the "sim:<scene>?key=value" URI and the key tables that
 // `transient sources`, the help of both programs and docs/measuring.md print.
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -12,6 +13,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "kinect2/kinect2_format.h"
 #include "source_uri.h"
 #include "transient/drivers/simulator.h"
 
@@ -35,8 +37,15 @@ constexpr SimulatorScene kScenes[] = {
 };
 
 constexpr SourceKey kKeys[] = {
+    {"camera", "generic", "",
+     "generic, or kinect2: the Kinect v2 (512x424, harmonics 10,2,15 of 8 MHz, 3 steps, 11-bit "
+     "companded samples); the other keys change it"},
     {"f", "23e6", "Hz", "base modulation frequency; harmonic j is modulated at j*f"},
     {"m", "3", "", "number of harmonics m (moments c_0..c_m)"},
+    {"harmonics", "all", "",
+     "the harmonics measured, in capture order, e.g. 10,2,15 (sets m to the highest), or all: "
+     "1..m; only range, depth and amplitude unless they are all of 1..m"},
+    {"buckets", "4", "", "phase steps N per harmonic at 360/N degrees, 3..16"},
     {"scheme", "arccos", "", "four-bucket, arccos or harmonic-cancellation (thesis §8.3.1)"},
     {"nphi", "8", "", "phase steps n_phi of arccos / harmonic cancellation"},
     {"zeroth", "pair", "", "zeroth moment: pair (on - off), proxy (low frequency) or estimated"},
@@ -56,6 +65,7 @@ constexpr SourceKey kKeys[] = {
     {"full_well", "40000", "e-", "capacity of each tap"},
     {"read_noise", "20", "e-", "read noise of each tap"},
     {"adc_bits", "12", "", "ADC resolution 8..16; 0 = float output in electrons"},
+    {"adc", "linear", "", "linear (adc_bits), or kinect2: 11-bit companded signed samples"},
     {"noise", "physical", "", "physical (shot + read), gaussian (std = signal/snr) or none"},
     {"snr", "70", "", "signal-to-noise ratio of noise=gaussian"},
     {"outliers", "0", "", "probability of an outlier raw frame (synchronization slip)"},
@@ -79,6 +89,7 @@ bool InRange(double value, double lo, double hi) {
 constexpr std::pair<absl::string_view, absl::string_view> kScheduleFieldKeys[] = {
     {"base_frequency_hz", "f"}, {"order", "m"},
     {"phase_steps", "nphi"},    {"proxy_frequency_hz", "proxy_f"},
+    {"buckets", "buckets"},     {"harmonics", "harmonics"},
     {"exposure_s", "exposure"}, {"takes", "takes"},
 };
 
@@ -159,6 +170,24 @@ const std::map<absl::string_view, Setter>& Setters() {
          return absl::OkStatus();
        }},
       {"nphi", ScheduleInt(&ScheduleOptions::phase_steps)},
+      {"buckets", ScheduleInt(&ScheduleOptions::buckets)},
+      {"harmonics",
+       [](absl::string_view k, absl::string_view v, SimulatorOptions* o) {
+         if (v == "all") {  // 1..m
+           o->schedule.harmonics.clear();
+           return absl::OkStatus();
+         }
+         absl::StatusOr<std::vector<int>> parsed = ParseHarmonicList(v);
+         if (!parsed.ok()) {
+           return absl::InvalidArgumentError(
+               absl::StrCat("sim: key ", k, ": ", parsed.status().message()));
+         }
+         o->schedule.harmonics = *std::move(parsed);
+         int highest = 0;
+         for (int j : o->schedule.harmonics) highest = std::max(highest, j);
+         o->schedule.order = highest;  // m follows the set
+         return absl::OkStatus();
+       }},
       {"zeroth",
        [](absl::string_view k, absl::string_view v, SimulatorOptions* o) {
          auto parsed = ParseZerothScheme(v);
@@ -189,6 +218,10 @@ const std::map<absl::string_view, Setter>& Setters() {
       {"full_well", Double(&SimulatorOptions::full_well)},
       {"read_noise", Double(&SimulatorOptions::read_noise)},
       {"adc_bits", Integer(&SimulatorOptions::adc_bits)},
+      {"adc",
+       [](absl::string_view k, absl::string_view v, SimulatorOptions* o) {
+         return ParseEnum(k, v, {Adc::kLinear, Adc::kKinect2}, &AdcName, &o->adc);
+       }},
       {"noise",
        [](absl::string_view k, absl::string_view v, SimulatorOptions* o) {
          return ParseEnum(k, v, {NoiseModel::kPhysical, NoiseModel::kGaussian, NoiseModel::kNone},
@@ -221,6 +254,41 @@ std::string SceneNames() {
 }
 
 std::string Number(double value) { return absl::StrFormat("%.17g", value); }
+
+}  // namespace
+
+absl::string_view AdcName(Adc adc) {
+  switch (adc) {
+    case Adc::kLinear:
+      return "linear";
+    case Adc::kKinect2:
+      return "kinect2";
+  }
+  return "unknown";
+}
+
+namespace {
+
+// The keys a camera stands for (SimulatorOptions::camera).
+absl::Status ApplyCameraPreset(absl::string_view camera, SimulatorOptions* o) {
+  if (camera == "generic") {
+    o->camera = "generic";
+    return absl::OkStatus();
+  }
+  if (camera != "kinect2") {
+    return absl::InvalidArgumentError(
+        absl::StrCat("sim: key camera = '", camera, "' is not accepted; expected generic or kinect2"));
+  }
+  o->camera = "kinect2";
+  o->schedule = kinect2::Schedule();
+  o->width = kinect2::kWidth;
+  o->height = kinect2::kHeight;
+  o->waveform = Waveform::kSinusoid;
+  o->adc = Adc::kKinect2;
+  // Nine correlation sub-frames in the camera's 33.25 ms frame (the tenth's slot shared out).
+  o->readout_s = kinect2::kFramePeriodS / kinect2::kCorrelationSubFrames - o->schedule.exposure_s;
+  return absl::OkStatus();
+}
 
 }  // namespace
 
@@ -267,6 +335,10 @@ absl::Status SimulatorOptions::Validate() const {
   if (!known_scene) {
     return absl::InvalidArgumentError(
         absl::StrCat("unknown scene '", scene, "'; expected one of ", SceneNames()));
+  }
+  if (camera != "generic" && camera != "kinect2") {
+    return absl::InvalidArgumentError(
+        absl::StrCat("camera = '", camera, "'. Violated constraint: generic or kinect2"));
   }
   if (absl::Status status = schedule.Validate(); !status.ok()) {
     for (const auto& [field, key] : kScheduleFieldKeys) {
@@ -328,6 +400,11 @@ absl::StatusOr<SimulatorOptions> ParseSimulatorUri(absl::string_view uri) {
         absl::StrCat("sim: unknown scene '", options.scene, "'; expected one of ", SceneNames()));
   }
   for (const auto& [key, value] : parsed->keys) {
+    if (key != "camera") continue;  // the preset first: the other keys change it
+    if (absl::Status status = ApplyCameraPreset(value, &options); !status.ok()) return status;
+  }
+  for (const auto& [key, value] : parsed->keys) {
+    if (key == "camera") continue;
     const auto setter = Setters().find(key);
     if (setter == Setters().end()) {
       return absl::InvalidArgumentError(
@@ -342,8 +419,12 @@ absl::StatusOr<SimulatorOptions> ParseSimulatorUri(absl::string_view uri) {
 }
 
 std::string FormatSimulatorUri(const SimulatorOptions& o) {
-  const SimulatorOptions d;
+  SimulatorOptions d;  // the defaults of o's camera
   std::vector<std::string> parts;
+  if (o.camera != d.camera) {
+    (void)ApplyCameraPreset(o.camera, &d);
+    parts.push_back(absl::StrCat("camera=", o.camera));
+  }
   auto number = [&](absl::string_view key, double value, double fallback) {
     if (value != fallback) parts.push_back(absl::StrCat(key, "=", Number(value)));
   };
@@ -355,7 +436,11 @@ std::string FormatSimulatorUri(const SimulatorOptions& o) {
   };
   const ScheduleOptions& s = o.schedule;
   number("f", s.base_frequency_hz, d.schedule.base_frequency_hz);
-  integer("m", s.order, d.schedule.order);
+  if (s.harmonics != d.schedule.harmonics) {
+    parts.push_back(absl::StrCat("harmonics=", FormatHarmonicList(s.harmonics)));
+  }
+  if (s.harmonics.empty()) integer("m", s.order, d.schedule.order);
+  integer("buckets", s.buckets, d.schedule.buckets);
   name("scheme", SamplingSchemeName(s.sampling), SamplingSchemeName(d.schedule.sampling));
   integer("nphi", s.phase_steps, d.schedule.phase_steps);
   name("zeroth", ZerothSchemeName(s.zeroth), ZerothSchemeName(d.schedule.zeroth));
@@ -375,6 +460,7 @@ std::string FormatSimulatorUri(const SimulatorOptions& o) {
   number("full_well", o.full_well, d.full_well);
   number("read_noise", o.read_noise, d.read_noise);
   integer("adc_bits", o.adc_bits, d.adc_bits);
+  name("adc", AdcName(o.adc), AdcName(d.adc));
   name("noise", NoiseModelName(o.noise), NoiseModelName(d.noise));
   number("snr", o.snr, d.snr);
   number("outliers", o.outliers, d.outliers);

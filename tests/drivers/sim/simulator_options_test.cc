@@ -96,6 +96,53 @@ TEST(SimulatorUri, EveryKeyIsParsed) {
   EXPECT_EQ(again->schedule.sampling, SamplingScheme::kHarmonicCancellation);
 }
 
+// camera=kinect2 stands for the Kinect v2's keys; the other keys change it, in any order.
+TEST(SimulatorUri, TheKinect2CameraIsAPresetThatTheOtherKeysChange) {
+  const absl::StatusOr<SimulatorOptions> o =
+      ParseSimulatorUri("sim:corner?width=128&camera=kinect2&height=96&pace=fast");
+  ASSERT_THAT(o.status(), IsOk());
+  EXPECT_EQ(o->camera, "kinect2");
+  EXPECT_EQ(o->width, 128);
+  EXPECT_EQ(o->height, 96);
+  EXPECT_EQ(o->schedule.base_frequency_hz, 8e6);
+  EXPECT_EQ(o->schedule.harmonics, (std::vector<int>{10, 2, 15}));
+  EXPECT_EQ(o->schedule.order, 15);
+  EXPECT_EQ(o->schedule.buckets, 3);
+  EXPECT_EQ(o->schedule.zeroth, ZerothScheme::kEstimated);
+  EXPECT_EQ(o->adc, Adc::kKinect2);
+  EXPECT_EQ(o->waveform, Waveform::kSinusoid);
+  EXPECT_NEAR(9 * o->frame_period_s(), 33.25e-3, 1e-12);  // 266 footer ticks of 125 us
+  EXPECT_EQ(FormatSimulatorUri(*o), "sim:corner?camera=kinect2&width=128&height=96&pace=fast");
+  const absl::StatusOr<SimulatorOptions> full = ParseSimulatorUri("sim:corner?camera=kinect2");
+  ASSERT_THAT(full.status(), IsOk());
+  EXPECT_EQ(full->width, 512);
+  EXPECT_EQ(full->height, 424);
+  EXPECT_THAT(ParseSimulatorUri("sim:corner?camera=kinect3").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("camera = 'kinect3' is not accepted; expected generic or kinect2")));
+}
+
+TEST(SimulatorUri, HarmonicsSetTheOrderAndBucketsTheSteps) {
+  absl::StatusOr<SimulatorOptions> o =
+      ParseSimulatorUri("sim:mirrors?harmonics=4,1&buckets=5&f=10e6");
+  ASSERT_THAT(o.status(), IsOk());
+  EXPECT_EQ(o->schedule.harmonics, (std::vector<int>{4, 1}));
+  EXPECT_EQ(o->schedule.order, 4);
+  EXPECT_EQ(o->schedule.buckets, 5);
+  EXPECT_EQ(FormatSimulatorUri(*o), "sim:mirrors?f=10000000&harmonics=4,1&buckets=5");
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?harmonics=4,1&m=3").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("key m: order = 3. Violated constraint: order = max(harmonics)")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?harmonics=4,x").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("sim: key harmonics: harmonic list '4,x': 'x' is not an integer")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?buckets=2").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("key buckets: buckets = 2. Violated constraint: 3 <= buckets")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?adc=log").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("adc = 'log'")));
+}
+
 TEST(SimulatorUri, EveryScenesIsAccepted) {
   for (const SimulatorScene& scene : SimulatorScenes()) {
     EXPECT_THAT(ParseSimulatorUri("sim:" + std::string(scene.name)).status(), IsOk());
@@ -114,7 +161,7 @@ TEST(SimulatorUri, UnknownSceneIsRefusedWithTheAcceptedOnes) {
 TEST(SimulatorUri, UnknownKeyIsRefusedWithTheAcceptedKeys) {
   EXPECT_THAT(ParseSimulatorUri("sim:mirrors?fps=30").status(),
               StatusIs(absl::StatusCode::kInvalidArgument,
-                       HasSubstr("unknown key 'fps'; accepted keys: f, m, scheme")));
+                       HasSubstr("unknown key 'fps'; accepted keys: camera, f, m, harmonics")));
 }
 
 TEST(SimulatorUri, MalformedValuesNameTheKey) {

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <set>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -12,6 +14,7 @@
 #include "absl/time/clock.h"
 #include "tests/drivers/sim/sim_test_util.h"
 #include "tests/support/status_matchers.h"
+#include "kinect2/kinect2_format.h"
 #include "transient/drivers/simulator.h"
 
 namespace transient::sim::testing {
@@ -123,6 +126,37 @@ TEST(SimulatorSource, CameraHasPlausibleIntrinsicsAndCapabilities) {
   EXPECT_TRUE(caps.arbitrary_phase_shift);
   EXPECT_FALSE(caps.replay);
   EXPECT_EQ(source->uri(), "sim:mirrors?pace=fast");
+}
+
+// The simulated Kinect v2: its nine sub-frames, companded samples, dead columns, saturation.
+TEST(SimulatorSource, TheKinect2CameraDeliversCompandedSubFramesWithDeadColumns) {
+  auto source = OpenSource("sim:mirrors?camera=kinect2&width=32&height=16&pace=fast");
+  ASSERT_THAT(source.status(), IsOk());
+  ASSERT_THAT((*source)->Start(), IsOk());
+  const std::array<int16_t, 2048>& table = kinect2::CompandingTable();
+  const std::set<float> representable(table.begin(), table.end());
+  std::multiset<int> harmonics;
+  for (int s = 0; s < 9; ++s) {
+    RawFrame frame;
+    ASSERT_THAT((*source)->Next(absl::Seconds(5), &frame), IsOk());
+    harmonics.insert(frame.config.harmonic);
+    EXPECT_EQ(frame.saturation_level, 32767.0f);
+    for (int y = 0; y < 16; ++y) {
+      EXPECT_TRUE(std::isnan(frame.pixels[y * 32])) << y;
+      EXPECT_TRUE(std::isnan(frame.pixels[y * 32 + 31])) << y;
+      for (int x = 1; x < 31; ++x) {
+        EXPECT_TRUE(representable.contains(frame.pixels[y * 32 + x])) << frame.pixels[y * 32 + x];
+      }
+    }
+  }
+  EXPECT_EQ(harmonics, (std::multiset<int>{2, 2, 2, 10, 10, 10, 15, 15, 15}));
+  // Brighter than the full well: saturated samples, never a wrapped value.
+  auto bright = OpenSource("sim:mirrors?camera=kinect2&width=32&height=16&pace=fast&brightness=1e10");
+  ASSERT_THAT(bright.status(), IsOk());
+  ASSERT_THAT((*bright)->Start(), IsOk());
+  RawFrame frame;
+  ASSERT_THAT((*bright)->Next(absl::Seconds(5), &frame), IsOk());
+  EXPECT_EQ(frame.pixels[8 * 32 + 16], 32767.0f);
 }
 
 TEST(SimulatorSource, OpenSimulatorReportsItsCanonicalUri) {

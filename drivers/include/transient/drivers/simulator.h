@@ -56,7 +56,17 @@ enum class Pace {
   kFast,      // frames as fast as they can be computed; timestamps stay simulated
 };
 
-// "sinusoid", "square", "triangle"; "physical", "gaussian", "none"; "realtime", "fast".
+// How the tap difference becomes a sample.
+enum class Adc {
+  kLinear,   // adc_bits bits above a mid-scale black level (or float electrons for adc_bits 0)
+  kKinect2,  // the Kinect v2's signed 11-bit companded samples (drivers/src/kinect2), full well
+             // at the largest magnitude (16,320), saturation 32767; the first and last column
+             // are unreadable (NaN), as the camera's are
+};
+
+// "sinusoid", "square", "triangle"; "physical", "gaussian", "none"; "realtime", "fast";
+// "linear", "kinect2".
+absl::string_view AdcName(Adc adc);
 absl::string_view WaveformName(Waveform waveform);
 absl::string_view NoiseModelName(NoiseModel noise);
 absl::string_view PaceName(Pace pace);
@@ -64,7 +74,14 @@ absl::string_view PaceName(Pace pace);
 // Everything a simulated capture depends on. The URI key of each field is given in brackets.
 struct SimulatorOptions {
   std::string scene = "mirrors";  // one of SimulatorScenes()
-  ScheduleOptions schedule;       // [f m scheme nphi zeroth proxy_f exposure takes]
+  // [camera] "generic", or "kinect2": the Kinect v2's sensor and fixed schedule (512x424,
+  // harmonics 10, 2, 15 of 8 MHz with three 120-degree steps, c_0 not measured, 11-bit
+  // companded samples with saturation and dead columns, nine correlation sub-frames per
+  // 33.25 ms, a sinusoidal modulation), which the other keys then change. A preset of the keys
+  // below, applied before them whatever their order in the URI.
+  std::string camera = "generic";
+  // [f m harmonics buckets scheme nphi zeroth proxy_f exposure takes]
+  ScheduleOptions schedule;
 
   // Sensor.
   int width = 163;                        // [width] pixels, 8..640
@@ -82,6 +99,7 @@ struct SimulatorOptions {
   double full_well = 40000.0;   // [full_well] electrons per tap
   double read_noise = 20.0;     // [read_noise] electrons per tap
   int adc_bits = 12;            // [adc_bits] 8..16, or 0 = float output in electrons
+  Adc adc = Adc::kLinear;       // [adc]
   NoiseModel noise = NoiseModel::kPhysical;  // [noise]
   double snr = 70.0;                         // [snr] noise=gaussian only (thesis fig. 8.12)
   double outliers = 0.0;        // [outliers] probability of a synchronization-slip raw frame
