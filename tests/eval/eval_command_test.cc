@@ -1,12 +1,14 @@
 // `transient eval` on small runs: bad options, the report files, and the thesis's expectations
 // that hold robustly at a few trials (issue 6: checked, not tuned toward).
 #include "tools/eval/eval_command.h"
+#include "tools/eval/multifrequency.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 #include <string>
 
@@ -59,6 +61,7 @@ TEST(RunEval, UnwritableOutputIsRejectedBeforeAnyWork) {
 TEST(Experiments, PisarenkoIsExactOnNoiseFreeKSparseResponsesWithKEqualToM) {
   ExperimentOptions options;
   options.trials = 20;
+  options.run_multi_frequency = false;  // its own test below
   options.truths = {TruthKind::kKSparse};
   options.methods = {MethodKind::kPisarenko};
   options.noise = {false};
@@ -84,6 +87,7 @@ TEST(Experiments, PisarenkoIsExactOnNoiseFreeKSparseResponsesWithKEqualToM) {
 TEST(Experiments, MeseHasTheLowestCumulativeErrorOnNoiseFreeContinuousReturns) {
   ExperimentOptions options;
   options.trials = 16;
+  options.run_multi_frequency = false;  // its own test below
   options.truths = {TruthKind::kContinuous};
   options.noise = {false};
   options.orders = {3};
@@ -106,6 +110,7 @@ TEST(Experiments, MeseCutsTheCornersRangeErrorSeveralTimesComparedToTheNaivePhas
   // thesis fig. 8.13) MESE's RMSE is only ~1.5x below the naive phase's (see the table in docs/eval.md).
   ExperimentOptions options;
   options.trials = 40;
+  options.run_multi_frequency = false;  // its own test below
   options.truths = {TruthKind::kCorner};
   options.methods = {MethodKind::kSingleFrequency, MethodKind::kMese};
   options.orders = {3};
@@ -123,6 +128,47 @@ TEST(Experiments, MeseCutsTheCornersRangeErrorSeveralTimesComparedToTheNaivePhas
   EXPECT_GT(naive->range_error_mm.mean, 0.0) << "multipath makes the naive range too long";
 }
 
+// The Kinect v2's frequencies (16, 80, 120 MHz), noise-free: transientd's unwrapping at least
+// as good as libfreenect2's on both scenes, and the two-return fit better still on the corner's
+// multipath (measured at 163x120: median |error| 24.7 / 19.3 / 4.4 mm; docs/eval.md).
+TEST(MultiFrequency, UnwrappingAtLeastAsGoodAsLibfreenect2AndTheTwoReturnFitBetterOnTheCorner) {
+  MultiFrequencyOptions options;
+  options.width = 41;  // the scenes' field of view at a coarser resolution
+  options.height = 30;
+  options.pixel_stride = 2;
+  options.noise = {false};
+  absl::StatusOr<std::vector<MultiFrequencyRow>> rows = RunMultiFrequency(options);
+  ASSERT_THAT(rows.status(), IsOk());
+  ASSERT_EQ(rows->size(), 6u);
+  auto find = [&](const std::string& scene, UnwrapMethod method) -> const MultiFrequencyRow& {
+    for (const MultiFrequencyRow& row : *rows) {
+      if (row.scene == scene && row.method == method) return row;
+    }
+    ADD_FAILURE() << scene;
+    return rows->front();
+  };
+  for (const std::string scene : {"corner", "mirrors"}) {
+    const MultiFrequencyRow& ours = find(scene, UnwrapMethod::kMaximumLikelihood);
+    const MultiFrequencyRow& theirs = find(scene, UnwrapMethod::kLibfreenect2);
+    EXPECT_GT(ours.pixels, 100) << scene;
+    EXPECT_GE(ours.found_share, theirs.found_share) << scene;
+    EXPECT_LE(ours.wrap_errors, theirs.wrap_errors) << scene;
+    EXPECT_LE(ours.median_abs_mm, theirs.median_abs_mm) << scene;
+  }
+  EXPECT_LT(find("corner", UnwrapMethod::kTwoReturn).median_abs_mm,
+            0.5 * find("corner", UnwrapMethod::kMaximumLikelihood).median_abs_mm);
+  EXPECT_EQ(find("corner", UnwrapMethod::kLibfreenect2).found_share, 1.0);
+}
+
+// libfreenect2's unwrapping recovers a single return anywhere within 18.74 m (noise-free).
+TEST(MultiFrequency, Libfreenect2UnwrappingIsExactOnASingleReturn) {
+  for (double range = 0.1; range < 18.6; range += 0.37) {
+    const double phase = 2.0 * std::numbers::pi * 2.0 * range / 299792458.0;  // radians per Hz
+    auto m = [&](double hz) { return std::polar(1.0, phase * hz); };
+    EXPECT_NEAR(Libfreenect2Range(m(16e6), m(80e6), m(120e6)), range, 2e-3) << range;
+  }
+}
+
 TEST(RunEval, WritesTheReportWithARowPerMethodNoiseAndOrder) {
   ScratchDirectory scratch;
   EvalArgs args;
@@ -132,6 +178,9 @@ TEST(RunEval, WritesTheReportWithARowPerMethodNoiseAndOrder) {
   options.corner_width = 24;
   options.corner_height = 18;
   options.example_noisy_draws = 2;
+  options.multi_frequency.width = 24;
+  options.multi_frequency.height = 18;
+  options.multi_frequency.pixel_stride = 16;
   int64_t last_done = 0, last_total = -1;
   ExperimentHooks hooks;
   hooks.on_progress = [&](int64_t done, int64_t total) { last_done = done, last_total = total; };
@@ -140,7 +189,9 @@ TEST(RunEval, WritesTheReportWithARowPerMethodNoiseAndOrder) {
   // Per noise level: 4 related methods + 2 of ours at m = 3, 4, 8 on sparse, continuous and
   // corner (10 rows); on K-sparse, per K in {3, 4, 8}: 4 related + 2 of ours at m = K.
   constexpr int kRows = 3 * 2 * 10 + 3 * 2 * 6;
-  EXPECT_EQ(summary->rows, kRows);
+  // The Kinect v2's frequencies: 2 scenes x 2 noise levels x 3 methods.
+  constexpr int kMultiFrequencyRows = 2 * 2 * 3;
+  EXPECT_EQ(summary->rows, kRows + kMultiFrequencyRows);
   EXPECT_EQ(last_done, kRows);
   EXPECT_EQ(last_total, kRows);
   for (const char* name : {"eval.md", "eval.json", "cdf_sparse.svg", "cdf_continuous.svg",
@@ -157,7 +208,9 @@ TEST(RunEval, WritesTheReportWithARowPerMethodNoiseAndOrder) {
       ++table_rows;
     }
   }
-  EXPECT_EQ(table_rows, kRows);
+  EXPECT_EQ(table_rows, kRows + kMultiFrequencyRows);
+  EXPECT_THAT(md, HasSubstr("| mirrors | libfreenect2 unwrapping | SNR 70:1 |"));
+  EXPECT_THAT(md, HasSubstr("| corner | ML unwrapping (transientd) | none |"));
   EXPECT_THAT(md, HasSubstr("| MESE | none | 3 | 0, 23, 46, 69 MHz |"));
   EXPECT_THAT(md, HasSubstr("| Pisarenko | SNR 70:1 | 8 | 23, 46, 69, 92, 115, 138, 161, 184 MHz |"));
   EXPECT_THAT(md, HasSubstr("| SRA | none | – | 23, 46, 69 MHz |"));
@@ -165,6 +218,7 @@ TEST(RunEval, WritesTheReportWithARowPerMethodNoiseAndOrder) {
   const std::string json = ReadFile(std::filesystem::path(args.output_dir) / "eval.json");
   EXPECT_THAT(json, HasSubstr("\"format\": \"transient-eval 1\""));
   EXPECT_THAT(json, HasSubstr("\"method\": \"Godbaz 2-Dirac\""));
+  EXPECT_THAT(json, HasSubstr("\"scene\": \"corner\", \"method\": \"two-return fit\""));
   const std::string svg = ReadFile(std::filesystem::path(args.output_dir) / "corner_top_view.svg");
   EXPECT_THAT(svg, HasSubstr("depth z (m)"));
 }

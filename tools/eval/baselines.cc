@@ -10,13 +10,16 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
+#include <numbers>
 #include <utility>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/string_view.h"
 #include "transient/reconstruct/moments.h"
+#include "transient/reconstruct/physical_constants.h"
 #include "transient/reconstruct/polynomial.h"
 
 namespace transient::eval {
@@ -505,6 +508,43 @@ absl::StatusOr<SparseReturns> Sra(std::span<const double> frequencies_hz,
   }
   close_run();
   return ToSparseReturns(std::move(returns));
+}
+
+double Libfreenect2Range(Complex m16, Complex m80, Complex m120) {
+  constexpr double kTwoPi = 2.0 * std::numbers::pi;
+  // Rule 9: phases in [0, 2*pi); NaN (no light) counts as 0.
+  auto phase = [&](Complex m) {
+    double theta = std::atan2(m.imag(), m.real());
+    if (theta < 0.0) theta += kTwoPi;
+    return std::isnan(theta) ? 0.0 : theta;
+  };
+  // Rules 14-20, with the code's truncated constants.
+  const double t0 = phase(m80) / kTwoPi * 3.0;
+  const double t1 = phase(m16) / kTwoPi * 15.0;
+  const double t2 = phase(m120) / kTwoPi * 2.0;
+  const double t5 = std::floor((t1 - t0) * 0.333333 + 0.5) * 3.0 + t0;
+  const double d = t5 - t2;
+  const double r = d >= 0.0 ? (d / 2.0 - std::floor(d / 2.0)) * 2.0
+                            : (-d / 2.0 - std::floor(-d / 2.0)) * -2.0;
+  const bool c2 = 0.5 < std::abs(r) && std::abs(r) < 1.5;
+  double t6 = c2 ? t5 + 15.0 : t5;
+  double t7 = c2 ? t1 + 15.0 : t1;
+  const double t8 = (std::floor((t6 - t2) * 0.5 + 0.5) * 2.0 + t2) * 0.5;
+  t6 *= 0.333333;
+  t7 *= 0.066667;
+  const double t9 = t8 + t6 + t7;
+  const double t10 = t9 < 0.0 ? 0.0 : t9 * 0.333333;
+  // Rules 21-23: the consistency of the three unwrapped phases.
+  const double v6 = kTwoPi * t6, v7 = kTwoPi * t7, v8 = kTwoPi * t8;
+  const double a = 0.826977 * v7 - 0.110264 * v8;
+  const double b = 0.551318 * v8 - 0.826977 * v6;
+  const double c = 0.110264 * v6 - 0.551318 * v7;
+  const double norm = a * a + b * b + c * c;
+  constexpr double kConfidence = 0.3490659;  // min_dealias_confidence: bright pixels
+  if (!(kConfidence * kConfidence >= norm) || !(t10 > 0.0)) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  return t10 / 9.0 * UnambiguousRange(8e6);
 }
 
 }  // namespace transient::eval

@@ -110,4 +110,18 @@ absl::StatusOr<SparseReturns> Sra(std::span<const double> frequencies_hz,
                                   std::span<const Complex> measurements, double epsilon = 0.05,
                                   int grid_bins = 512);
 
+// libfreenect2's per-pixel phase unwrapping of the Kinect v2 (its CPU depth processor,
+// src/cpu_depth_packet_processor.cpp at fd64c5d, stage 2, rules written from its description):
+// the phases theta_80, theta_16, theta_120 in [0, 2*pi) scaled to t0 = 3*theta_80/(2*pi),
+// t1 = 15*theta_16/(2*pi), t2 = 2*theta_120/(2*pi); the unwrapped values t6 ~ 10p, t7 ~ 2p,
+// t8 ~ 15p (p: the range's fraction of c/(2 * 8 MHz)) by sequential rounding; their mean
+// t10 = (t6 + t7 + t8)/3 ~ 9p; and the pixel kept only when the unwrapped phases agree: the
+// squared distance of 2*pi*(t6, t7, t8) from the line through (10, 2, 15) at most c^2, with c
+// the dealias confidence (0.3490659 rad, its value for bright pixels). The spatial filters
+// (bilateral, edge) and the amplitude thresholds, which need the camera's units, are left out:
+// the comparison is of the unwrapping. Returns the radial range in metres (p * c/(2 * 8 MHz)),
+// or NaN where libfreenect2 gives no depth. `measurements` are m(16 MHz), m(80 MHz),
+// m(120 MHz) in the convention above (phase increasing with the time of flight).
+double Libfreenect2Range(Complex m16, Complex m80, Complex m120);
+
 }  // namespace transient::eval

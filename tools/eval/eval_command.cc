@@ -255,6 +255,35 @@ std::string FormatMarkdown(const ExperimentResult& result, const ExperimentOptio
           Number(row.time_per_pixel_us, 2), " |\n");
     }
   }
+  if (!result.multi_frequency.empty()) {
+    absl::StrAppend(
+        &md,
+        "\n## The Kinect v2's frequencies: 16, 80, 120 MHz\n\n"
+        "Harmonics 2, 10, 15 of 8 MHz (unambiguous range 18.74 m), measured on the simulator's "
+        "corner and mirrors scenes (",
+        options.multi_frequency.width, "x", options.multi_frequency.height, ", every ",
+        options.multi_frequency.pixel_stride,
+        "th lit pixel), with the noise above. Methods: libfreenect2's per-pixel unwrapping "
+        "(its CPU processor's stage 2 without the spatial filters and amplitude thresholds), "
+        "transientd's maximum-likelihood unwrapping (phase_unwrapping.h, the product's), and a "
+        "two-return fit across the three frequencies. *found*: pixels with a range; *off > "
+        "0.5 m*: ranges further than that from the true first return (a wrong unwrapping "
+        "candidate, or another return taken for the first: a mirror path), left out of the "
+        "error columns.\n\n"
+        "| scene | method | noise | found | off > 0.5 m | range mean (mm) | range RMSE (mm) "
+        "| \\|range\\| median (mm) | \\|range\\| p95 (mm) | µs/pixel |\n"
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|\n");
+    for (const MultiFrequencyRow& row : result.multi_frequency) {
+      absl::StrAppend(&md, "| ", row.scene, " | ", UnwrapMethodName(row.method), " | ",
+                      row.noisy ? absl::StrFormat("SNR %g:1", options.snr) : "none", " | ",
+                      absl::StrFormat("%.1f%%", 100.0 * row.found_share), " | ",
+                      absl::StrFormat("%.2f%%", 100.0 * row.wrap_errors), " | ",
+                      Number(row.range_error_mm.mean, 2), " | ", Number(row.range_error_mm.rmse, 2),
+                      " | ", Number(row.median_abs_mm, 2), " | ",
+                      Number(row.range_error_mm.p95_abs, 2), " | ",
+                      Number(row.time_per_pixel_us, 2), " |\n");
+    }
+  }
   return md;
 }
 
@@ -288,6 +317,21 @@ std::string FormatJson(const ExperimentResult& result, const ExperimentOptions& 
         r.range_error_mm.count, JsonNumber(r.time_per_pixel_us),
         i + 1 < result.rows.size() ? "," : "");
   }
+  absl::StrAppend(&json, "  ],\n  \"kinect2_frequencies\": [\n");
+  for (size_t i = 0; i < result.multi_frequency.size(); ++i) {
+    const MultiFrequencyRow& r = result.multi_frequency[i];
+    absl::StrAppendFormat(
+        &json,
+        "    {\"scene\": \"%s\", \"method\": \"%s\", \"noise\": %s, \"pixels\": %d, "
+        "\"found_share\": %s, \"wrong_unwrap_share\": %s, \"range_mean_mm\": %s, "
+        "\"range_rmse_mm\": %s, \"range_median_abs_mm\": %s, \"range_p95_abs_mm\": %s, "
+        "\"time_per_pixel_us\": %s}%s\n",
+        r.scene, UnwrapMethodName(r.method), r.noisy ? "true" : "false", r.pixels,
+        JsonNumber(r.found_share), JsonNumber(r.wrap_errors), JsonNumber(r.range_error_mm.mean),
+        JsonNumber(r.range_error_mm.rmse), JsonNumber(r.median_abs_mm),
+        JsonNumber(r.range_error_mm.p95_abs), JsonNumber(r.time_per_pixel_us),
+        i + 1 < result.multi_frequency.size() ? "," : "");
+  }
   absl::StrAppend(&json, "  ]\n}\n");
   return json;
 }
@@ -308,7 +352,7 @@ absl::StatusOr<EvalSummary> RunEval(const EvalArgs& args, const ExperimentOption
 
   EvalSummary summary;
   summary.output_dir = args.output_dir;
-  summary.rows = static_cast<int>(result->rows.size());
+  summary.rows = static_cast<int>(result->rows.size() + result->multi_frequency.size());
   summary.seconds = result->seconds;
   const std::filesystem::path dir(args.output_dir);
   auto write = [&](const std::string& name, const std::string& content) -> absl::Status {

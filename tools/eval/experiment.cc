@@ -534,6 +534,15 @@ absl::StatusOr<ExperimentResult> RunExperiments(const ExperimentOptions& options
       result.top_view.methods.push_back(std::move(points));
     }
   }
+  if (options.run_multi_frequency) {
+    if (hooks.on_stage) hooks.on_stage("the Kinect v2's frequencies on corner and mirrors");
+    MultiFrequencyOptions multi = options.multi_frequency;
+    multi.seed = options.seed;
+    multi.snr = options.snr;
+    absl::StatusOr<std::vector<MultiFrequencyRow>> rows = RunMultiFrequency(multi);
+    if (!rows.ok()) return rows.status();
+    result.multi_frequency = *std::move(rows);
+  }
   result.seconds = SecondsSince<Clock>(start);
   return result;
 }

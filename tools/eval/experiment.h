@@ -15,6 +15,7 @@
 #include "absl/status/statusor.h"
 #include "tools/eval/ground_truth.h"
 #include "tools/eval/metrics.h"
+#include "tools/eval/multifrequency.h"
 #include "tools/transient/common/command_hooks.h"
 #include "transient/reconstruct/cumulative.h"
 #include "transient/reconstruct/reconstructor.h"
@@ -48,6 +49,9 @@ struct ExperimentOptions {
   int corner_width = 163, corner_height = 120;  // the simulator's default camera
   SyntheticTruthOptions synthetic;
   int example_noisy_draws = 6;  // gray curves per panel of the plots
+  // The Kinect v2's frequencies (multifrequency.h), with this seed and snr; off: none.
+  bool run_multi_frequency = true;
+  MultiFrequencyOptions multi_frequency;
 
   // Names the first violated constraint, e.g. "trials = 0. Violated constraint: trials > 0".
   absl::Status Validate() const;
@@ -116,6 +120,7 @@ struct ExperimentResult {
   TopView top_view;
   // max over trials of the light outside [0, T) / c_0, per truth (what wrapping moved)
   std::vector<std::pair<TruthKind, double>> light_outside;
+  std::vector<MultiFrequencyRow> multi_frequency;
   double seconds = 0.0;
 };
 

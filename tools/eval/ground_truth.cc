@@ -196,8 +196,12 @@ ImpulseResponse RandomKSparse(int k, const SyntheticTruthOptions& options, Rando
 }
 
 absl::StatusOr<CornerTruth> MakeCornerTruth(int width, int height) {
+  return MakeSceneTruth("corner", width, height);
+}
+
+absl::StatusOr<CornerTruth> MakeSceneTruth(absl::string_view scene_name, int width, int height) {
   SimulatorOptions options;
-  options.scene = "corner";
+  options.scene = std::string(scene_name);
   options.width = width;
   options.height = height;
   absl::StatusOr<SceneReturns> scene = RenderSceneReturns(options);

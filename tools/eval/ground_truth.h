@@ -102,5 +102,7 @@ struct CornerTruth {
   int scanline_row = 0;                 // the row shown in the top view (middle of the image)
 };
 absl::StatusOr<CornerTruth> MakeCornerTruth(int width, int height);
+// The same for any scene of the simulator ("mirrors": three Dirac returns per pixel).
+absl::StatusOr<CornerTruth> MakeSceneTruth(absl::string_view scene, int width, int height);
 
 }  // namespace transient::eval
