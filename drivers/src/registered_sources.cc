@@ -12,6 +12,7 @@ namespace internal {
 extern const SourceScheme kSimulatorScheme;  // src/sim/simulator_scheme.cc
 extern const SourceScheme kReplayScheme;     // src/replay/replay_scheme.cc
 extern const SourceScheme kV4l2Scheme;       // src/v4l2/v4l2_source.cc
+extern const SourceScheme kUsbScheme;        // src/kinect2/kinect2_source.cc
 }  // namespace internal
 
 namespace {
@@ -20,6 +21,7 @@ const SourceScheme* const kSchemes[] = {
     &internal::kSimulatorScheme,
     &internal::kReplayScheme,
     &internal::kV4l2Scheme,
+    &internal::kUsbScheme,
 };
 
 std::string SchemeNames() {

@@ -77,7 +77,8 @@ TEST_F(TransientBinary, DevicesListsWhatThisMachineHasAndExitsZero) {
   if (std::filesystem::exists("/dev/video0")) {
     EXPECT_THAT(result.out, HasSubstr("v4l2:/dev/video"));
   } else {
-    EXPECT_EQ(result.out, "no capture devices found (looked for V4L2 nodes /dev/videoN)\n");
+    EXPECT_EQ(result.out, "no capture devices found (looked for V4L2 nodes /dev/videoN and Kinect v2 "
+            "cameras on USB)\n");
   }
 }
 

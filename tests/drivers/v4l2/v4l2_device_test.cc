@@ -229,7 +229,8 @@ TEST_F(V4l2DeviceTest, MissingNodesAreNotFoundAndAnEmptyListSaysSo) {
   const std::vector<CaptureDevice> devices = ListCaptureDevices();
   EXPECT_THAT(devices, IsEmpty());
   EXPECT_EQ(DescribeCaptureDevices(devices),
-            "no capture devices found (looked for V4L2 nodes /dev/videoN)\n");
+            "no capture devices found (looked for V4L2 nodes /dev/videoN and Kinect v2 "
+            "cameras on USB)\n");
 }
 
 EmulatedNode SmallSensor() {
