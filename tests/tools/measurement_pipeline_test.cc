@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <iostream>
 #include <vector>
 
@@ -201,6 +202,21 @@ TEST_F(MeasurementPipeline, CalibrationOfAnotherScheduleIsRefusedWithBothValues)
                   .status(),
               StatusIs(absl::StatusCode::kFailedPrecondition,
                        ::testing::AllOf(HasSubstr("3"), HasSubstr("4"))));
+}
+
+// A capture of the simulated Kinect v2 (harmonics 2, 10, 15) has no moment file: the moment
+// reconstruction needs every harmonic. Nothing is written.
+TEST_F(MeasurementPipeline, MomentsOfAHarmonicSetAreRefusedNamingTheMissingHarmonics) {
+  Simulate("corner", "camera=kinect2&width=32&height=24", 1, File("capture.h5"));
+  EXPECT_THAT(RunMoments({.capture_path = File("capture.h5"), .output_path = File("moments.h5"),
+                          .uncalibrated = true})
+                  .status(),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("capture.h5: the schedule measures harmonics 2, 10, 15 of 8 MHz; "
+                                 "a moment file needs every harmonic 1..15 (missing 1, 3-9, "
+                                 "11-14); its range and depth come from transientd --source "
+                                 "replay:")));
+  EXPECT_FALSE(std::filesystem::exists(File("moments.h5")));
 }
 
 TEST_F(MeasurementPipeline, CaptureWithoutCalibrationNeedsUncalibratedToBeSaid) {

@@ -20,6 +20,11 @@ constexpr size_t kMaxListedProblems = 5;
 absl::StatusOr<FramePipeline> CapturePipeline(const CaptureReader& capture,
                                               const CaptureMeasureOptions& options,
                                               std::string* calibration_name) {
+  if (const ScheduleOptions& schedule = capture.schedule().options(); !schedule.HasAllHarmonics()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        capture.path(), ": ", schedule.MissingHarmonicsText("a moment file"),
+        "; its range and depth come from transientd --source replay:", capture.path()));
+  }
   std::shared_ptr<const CalibrationTable> calibration;
   if (!options.calibration_path.empty()) {
     absl::StatusOr<CalibrationTable> read = ReadCalibrationFile(options.calibration_path);

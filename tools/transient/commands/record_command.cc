@@ -93,6 +93,12 @@ absl::StatusOr<RecordSummary> RunRecord(const RecordArgs& args, const CommandHoo
           CaptureWriter::Create(args.output_path, source.camera(), schedule, options);
       if (!created.ok()) return created.status();
       writer.emplace(*std::move(created));
+      // The calibration the source carries (a camera's factory tables, a replay's embedded
+      // one) goes with its frames, so that the recording replays like the live camera.
+      if (const CalibrationTable* carried = source.embedded_calibration(nullptr)) {
+        if (absl::Status status = writer->EmbedCalibration(*carried); !status.ok()) return status;
+        summary.embedded_calibration = true;
+      }
       if (args.ground_truth) {
         absl::StatusOr<GroundTruth> truth = source.GroundTruthAt(frame.config.timestamp_s);
         if (truth.ok()) {
@@ -133,10 +139,11 @@ absl::StatusOr<RecordSummary> RunRecord(const RecordArgs& args, const CommandHoo
 
 std::string FormatRecordSummary(const RecordSummary& s) {
   return absl::StrFormat(
-      "%s: %d raw frames = %d transient frames from %s in %.1f s%s%s\n  schedule: %s",
+      "%s: %d raw frames = %d transient frames from %s in %.1f s%s%s%s\n  schedule: %s",
       s.output_path, s.raw_frames, s.cycles, s.source_uri, s.seconds,
-      s.ground_truth ? ", with ground truth" : "", s.interrupted ? " (interrupted)" : "",
-      s.schedule);
+      s.ground_truth ? ", with ground truth" : "",
+      s.embedded_calibration ? ", with the source's calibration" : "",
+      s.interrupted ? " (interrupted)" : "", s.schedule);
 }
 
 }  // namespace transient::tools

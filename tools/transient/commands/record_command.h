@@ -34,6 +34,7 @@ struct RecordSummary {
   double seconds = 0.0;
   bool interrupted = false;
   bool ground_truth = false;
+  bool embedded_calibration = false;  // the source's own calibration went into the file
   std::string schedule = {};  // AcquisitionSchedule::Describe()
 };
 
