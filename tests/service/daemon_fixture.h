@@ -15,6 +15,7 @@
 #include "absl/time/clock.h"
 #include "gtest/gtest.h"
 #include "tests/support/wait.h"
+#include "transient/client/decoded_image.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
 #include "transient/v1/transient.grpc.pb.h"
@@ -149,6 +150,29 @@ inline int ExpectSameAsLive(const std::vector<v1::Frame>& replayed,
     ++compared;
   }
   return compared;
+}
+
+// The images of the first frame with images of a stream of `request`, decoded and keyed by
+// image name; the stream's status when it ends first (a refused request). Links
+// transient_client.
+inline absl::StatusOr<std::map<std::string, std::vector<float>>> FirstDecodedFrame(
+    Daemon& daemon, const v1::StreamRequest& request) {
+  grpc::ClientContext context;
+  context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(60)));
+  auto reader = daemon.Stub()->StreamFrames(&context, request);
+  v1::Frame frame;
+  while (reader->Read(&frame)) {
+    if (frame.images_size() == 0) continue;
+    context.TryCancel();
+    (void)reader->Finish();
+    absl::StatusOr<std::vector<client::DecodedImage>> images = client::DecodeFrame(frame);
+    if (!images.ok()) return images.status();
+    std::map<std::string, std::vector<float>> out;
+    for (client::DecodedImage& image : *images) out[image.name] = std::move(image.values);
+    return out;
+  }
+  const grpc::Status status = reader->Finish();
+  return absl::Status(static_cast<absl::StatusCode>(status.error_code()), status.error_message());
 }
 
 }  // namespace transient::service::testing

@@ -14,7 +14,6 @@
 #include "absl/strings/str_cat.h"
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/status_matchers.h"
-#include "transient/client/decoded_image.h"
 #include "transient/drivers/calibration_capture.h"
 #include "transient/drivers/capture_source.h"
 #include "transient/reconstruct/percentile.h"
@@ -24,6 +23,7 @@ namespace {
 
 using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::FirstDecodedFrame;
 using ::transient::service::testing::Request;
 using ::transient::testing::IsOk;
 
@@ -44,27 +44,6 @@ PipelineOptions CalibratedKinect(absl::string_view scene) {
   return options;
 }
 
-// The first frame with images of a stream of `request`; the stream's status when it fails.
-absl::StatusOr<std::map<std::string, std::vector<float>>> FirstImages(Daemon& daemon,
-                                                                     const v1::StreamRequest& request) {
-  grpc::ClientContext context;
-  context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(60)));
-  auto reader = daemon.Stub()->StreamFrames(&context, request);
-  v1::Frame frame;
-  while (reader->Read(&frame)) {
-    if (frame.images_size() == 0) continue;
-    context.TryCancel();
-    (void)reader->Finish();
-    absl::StatusOr<std::vector<client::DecodedImage>> images = client::DecodeFrame(frame);
-    if (!images.ok()) return images.status();
-    std::map<std::string, std::vector<float>> out;
-    for (client::DecodedImage& image : *images) out[image.name] = std::move(image.values);
-    return out;
-  }
-  const grpc::Status status = reader->Finish();
-  return absl::Status(static_cast<absl::StatusCode>(status.error_code()), status.error_message());
-}
-
 TEST(HarmonicSetDaemon, ServesRangeDepthAmplitudeAndConfidenceByUnwrapping) {
   Daemon daemon(CalibratedKinect("corner"));
   absl::StatusOr<std::unique_ptr<CaptureSource>> truth_source =
@@ -73,7 +52,7 @@ TEST(HarmonicSetDaemon, ServesRangeDepthAmplitudeAndConfidenceByUnwrapping) {
   absl::StatusOr<GroundTruth> truth = (*truth_source)->GroundTruthAt(0.0);
   ASSERT_THAT(truth.status(), IsOk());
 
-  absl::StatusOr<std::map<std::string, std::vector<float>>> images = FirstImages(
+  absl::StatusOr<std::map<std::string, std::vector<float>>> images = FirstDecodedFrame(
       daemon, Request({v1::RANGE, v1::DEPTH, v1::AMPLITUDE, v1::CONFIDENCE, v1::FLAGS}));
   ASSERT_THAT(images.status(), IsOk());
   const std::vector<float>& range = (*images)["range"];
@@ -111,7 +90,7 @@ TEST(HarmonicSetDaemon, RefusesTheMomentReconstructionNamingTheMissingHarmonics)
        {v1::C0, v1::MOMENT_STATE, v1::SLICES, v1::CUMULATIVE, v1::DIRECT_INDIRECT}) {
     SCOPED_TRACE(v1::Product_Name(product));
     absl::StatusOr<std::map<std::string, std::vector<float>>> images =
-        FirstImages(daemon, Request({v1::RANGE, product}));
+        FirstDecodedFrame(daemon, Request({v1::RANGE, product}));
     EXPECT_EQ(images.status().code(), absl::StatusCode::kFailedPrecondition);
     EXPECT_THAT(images.status().message(),
                 HasSubstr("the schedule measures harmonics 2, 10, 15 of 8 MHz; the moment "
@@ -119,10 +98,10 @@ TEST(HarmonicSetDaemon, RefusesTheMomentReconstructionNamingTheMissingHarmonics)
   }
   v1::StreamRequest returns = Request({v1::MOMENT_DEPTH});
   returns.mutable_moment_depth()->set_from_returns(true);
-  EXPECT_EQ(FirstImages(daemon, returns).status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(FirstDecodedFrame(daemon, returns).status().code(), absl::StatusCode::kFailedPrecondition);
   // Of the depth it works, and the refusals above did not stop the daemon.
   absl::StatusOr<std::map<std::string, std::vector<float>>> moment_depth =
-      FirstImages(daemon, Request({v1::MOMENT_DEPTH, v1::RANGE}));
+      FirstDecodedFrame(daemon, Request({v1::MOMENT_DEPTH, v1::RANGE}));
   ASSERT_THAT(moment_depth.status(), IsOk());
   EXPECT_TRUE(moment_depth->contains("moment_depth"));
 
@@ -150,7 +129,7 @@ TEST(HarmonicSetDaemon, RefusesTheMomentReconstructionNamingTheMissingHarmonics)
 TEST(HarmonicSetDaemon, ConfidenceIsRefusedOnAScheduleWithEveryHarmonic) {
   Daemon daemon("sim:mirrors?width=32&height=24&pace=fast");
   absl::StatusOr<std::map<std::string, std::vector<float>>> images =
-      FirstImages(daemon, Request({v1::RANGE, v1::CONFIDENCE}));
+      FirstDecodedFrame(daemon, Request({v1::RANGE, v1::CONFIDENCE}));
   EXPECT_EQ(images.status().code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(images.status().message(), HasSubstr("measures every harmonic 1..3"));
 }

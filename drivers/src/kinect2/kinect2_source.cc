@@ -158,19 +158,14 @@ class Kinect2Source final : public CaptureSource {
     }
     const SubFrame& sub = current_[next_];
     const int k = static_cast<int>(sub.footer.subsequence);
-    if (!have_first_) {
-      have_first_ = true;
-      first_sequence_ = sub.footer.sequence;
-      last_timestamp_ = sub.footer.timestamp;
-    }
-    // Footer counters are 32 bits: unwrap them into 64-bit running values.
-    ticks_ += static_cast<uint32_t>(sub.footer.timestamp - last_timestamp_);
-    last_timestamp_ = sub.footer.timestamp;
+    // Since the first complete frame the camera sent (frames dropped since then leave gaps).
+    // The footer's counters are 32 bits: the timestamp wraps after 6.2 days.
     const int64_t cycle = static_cast<uint32_t>(sub.footer.sequence - first_sequence_);
+    const uint32_t ticks = sub.footer.timestamp - first_timestamp_;
     frame->config = SubFrameExposure(k);
     frame->config.cycle = cycle;
     frame->config.sequence = static_cast<uint64_t>(cycle) * kSubFrames + static_cast<uint64_t>(k);
-    frame->config.timestamp_s = static_cast<double>(ticks_) * kTimestampUnitS;
+    frame->config.timestamp_s = static_cast<double>(ticks) * kTimestampUnitS;
     frame->geometry = camera_.geometry;
     frame->pixels.resize(static_cast<size_t>(camera_.geometry.pixel_count()));
     frame->saturation_level = kSaturatedValue;
@@ -215,6 +210,11 @@ class Kinect2Source final : public CaptureSource {
  private:
   // On the event thread, under mu_: a complete depth frame into the bounded queue.
   void Queue(std::vector<SubFrame>&& frame) {
+    if (!have_first_) {
+      have_first_ = true;
+      first_sequence_ = frame.front().footer.sequence;
+      first_timestamp_ = frame.front().footer.timestamp;
+    }
     if (static_cast<int>(queue_.size()) >= options_.queue) {
       queue_.pop_front();
       ++dropped_;
@@ -238,12 +238,14 @@ class Kinect2Source final : public CaptureSource {
   std::deque<std::vector<SubFrame>> queue_;
   int64_t dropped_ = 0;
 
+  // The first complete frame's footer: set on the event thread before that frame is queued,
+  // read by the consumer after it took a frame from the queue (both under mu_).
+  bool have_first_ = false;
+  uint32_t first_sequence_ = 0, first_timestamp_ = 0;
+
   // Consumer side.
   std::vector<SubFrame> current_;
   size_t next_ = 0;
-  bool have_first_ = false;
-  uint32_t first_sequence_ = 0, last_timestamp_ = 0;
-  uint64_t ticks_ = 0;
 };
 
 }  // namespace
