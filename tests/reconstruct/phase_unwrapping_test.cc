@@ -21,13 +21,12 @@ using ::transient::testing::IsOk;
 using ::transient::testing::StatusIs;
 using ComplexF = std::complex<float>;
 
-constexpr double kPi = std::numbers::pi;
-
 // The Kinect v2's frequencies: harmonics 10, 2, 15 of 8 MHz (research/libusb.md §1.5).
 UnwrapOptions Kinect() { return {.base_frequency_hz = 8e6, .harmonics = {10, 2, 15}}; }
 
 // Calibrated moments of returns (range, weight) at harmonics j.
-std::vector<ComplexF> Moments(const UnwrapOptions& o, std::vector<std::pair<double, double>> returns) {
+std::vector<ComplexF> Moments(const UnwrapOptions& o,
+                              std::vector<std::pair<double, double>> returns) {
   std::vector<ComplexF> c;
   for (int j : o.harmonics) {
     std::complex<double> sum = 0.0;
@@ -61,7 +60,9 @@ TEST(UnwrapPixel, NoisyPhasesUnwrapToTheRightCandidateAndMultipathLowersConfiden
   for (int trial = 0; trial < 2000; ++trial) {
     const double range = 0.5 + 17.0 * (trial + 0.5) / 2000.0;
     std::vector<ComplexF> c = Moments(o, {{range, 1.0}});
-    for (ComplexF& z : c) z += ComplexF(static_cast<float>(noise(rng)), static_cast<float>(noise(rng)));
+    for (ComplexF& z : c) {
+      z += ComplexF(static_cast<float>(noise(rng)), static_cast<float>(noise(rng)));
+    }
     const UnwrappedPixel u = UnwrapPixel(c, o);
     if (u.flags != 0) {
       ++flagged;

@@ -46,7 +46,6 @@ Fit FitPair(const Complex* m, const Complex* e1, const Complex* e2, size_t count
   auto cost = [&](double a1, double a2) {
     return -2.0 * (a1 * h1 + a2 * h2) + a1 * a1 * g11 + a2 * a2 * g22 + 2.0 * a1 * a2 * g12;
   };
-  Fit best;
   const double det = g11 * g22 - g12 * g12;
   if (det > 1e-12 * g11 * g22) {
     const double a1 = (g22 * h1 - g12 * h2) / det, a2 = (g11 * h2 - g12 * h1) / det;

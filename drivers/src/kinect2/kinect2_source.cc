@@ -19,7 +19,8 @@ namespace transient::kinect2 {
 namespace {
 
 constexpr SourceKey kKeys[] = {
-    {"serial", "", "", "the camera's serial number (transient devices lists it); empty: the only one"},
+    {"serial", "", "",
+     "the camera's serial number (transient devices lists it); empty: the only one"},
     {"queue", "4", "frames",
      "depth frames waiting for the pipeline; when full the oldest is dropped and counted"},
     {"transfers", "16", "", "isochronous transfers in flight"},
@@ -42,7 +43,10 @@ absl::StatusOr<Kinect2Options> ParseUri(absl::string_view uri) {
                   "this scheme knows)"));
   }
   Kinect2Options o;
-  for (const auto& [key, value] : parsed->keys) {
+  for (const auto& entry : parsed->keys) {
+    // Named, not bound: Clang 15 cannot capture structured bindings in the lambda below.
+    const std::string& key = entry.first;
+    const std::string& value = entry.second;
     auto integer = [&](int* out, int low, int high) -> absl::Status {
       int v = 0;
       if (!absl::SimpleAtoi(value, &v) || v < low || v > high) {

@@ -347,7 +347,9 @@ absl::StatusOr<std::unique_ptr<UsbKinect2>> UsbKinect2::Open(const UsbKinect2Opt
   absl::StatusOr<std::vector<uint8_t>> firmware = d.Command(kReadFirmwareVersions, {}, 0x200);
   if (!firmware.ok()) return firmware.status();
   absl::StatusOr<std::string> version = ParseFirmwareVersion(*firmware);
-  if (!version.ok()) return absl::DataLossError(absl::StrCat(d.camera, ": ", version.status().message()));
+  if (!version.ok()) {
+    return absl::DataLossError(absl::StrCat(d.camera, ": ", version.status().message()));
+  }
   info.firmware = *version;
   absl::StatusOr<std::vector<uint8_t>> serial = d.Command(kReadData, {kDataSerial}, 0x80);
   if (!serial.ok()) return serial.status();
@@ -359,7 +361,9 @@ absl::StatusOr<std::unique_ptr<UsbKinect2>> UsbKinect2::Open(const UsbKinect2Opt
       d.Command(kReadData, {kDataDepthIntrinsics}, kMaxDataResponse);
   if (!intrinsics.ok()) return intrinsics.status();
   absl::StatusOr<DepthIntrinsics> parsed = ParseDepthIntrinsics(*intrinsics);
-  if (!parsed.ok()) return absl::DataLossError(absl::StrCat(d.camera, ": ", parsed.status().message()));
+  if (!parsed.ok()) {
+    return absl::DataLossError(absl::StrCat(d.camera, ": ", parsed.status().message()));
+  }
   info.intrinsics = *parsed;
   absl::StatusOr<std::vector<uint8_t>> p0 = d.Command(kReadData, {kDataP0Tables}, kMaxDataResponse);
   if (!p0.ok()) return p0.status();
@@ -386,7 +390,9 @@ absl::Status UsbKinect2::Start(PacketSink sink) {
     absl::StatusOr<std::vector<uint8_t>> r = d.Command(kReadStatus, {kStatusParam}, 4);
     if (!r.ok()) return r.status();
     absl::StatusOr<uint32_t> word = ParseStatus(*r);
-    if (!word.ok()) return absl::DataLossError(absl::StrCat(d.camera, ": ", word.status().message()));
+    if (!word.ok()) {
+      return absl::DataLossError(absl::StrCat(d.camera, ": ", word.status().message()));
+    }
     status_word = *word;
     if (status_word & 1) break;
     if (absl::Now() + kStatusPollInterval > deadline) {

@@ -35,7 +35,9 @@ TEST(Companding, AllTwoThousandFortyEightCodes) {
   EXPECT_EQ(magnitude[1023], 16320);
   for (int code = 0; code < 1024; ++code) {
     EXPECT_EQ(table[code], magnitude[code]) << code;
-    if (code > 0) EXPECT_EQ(table[1024 + code], -magnitude[code]) << 1024 + code;
+    if (code > 0) {
+      EXPECT_EQ(table[1024 + code], -magnitude[code]) << 1024 + code;
+    }
   }
   EXPECT_EQ(table[1024], 32767);  // saturation, not -0
   // Spot values of the description.

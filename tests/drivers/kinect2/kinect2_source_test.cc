@@ -356,7 +356,9 @@ TEST_F(Kinect2SourceTest, AConsumerThatFallsBehindLosesTheOldestFramesCounted) {
   ASSERT_THAT(source.status(), IsOk());
   ASSERT_THAT((*source)->Start(), IsOk());
   // The camera streams as fast as it is reaped; nobody takes frames for a while.
-  while (CountersOf(**source).at("frames") < 6) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  while (CountersOf(**source).at("frames") < 6) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
   const std::map<std::string, int64_t> counters = CountersOf(**source);
   EXPECT_GE(counters.at("frames_dropped_queue"), 4);
   const std::vector<RawFrame> frames = NextFrame(**source);

@@ -28,7 +28,8 @@ std::vector<uint8_t> SubPacket(uint32_t sequence, uint32_t sub, uint8_t fill,
 }
 
 // The packets of one sub-packet (8 x 33,792 + 28,312) and an idle zero-length one.
-std::vector<std::vector<uint8_t>> Packets(const std::vector<uint8_t>& sub_packet, bool idle = true) {
+std::vector<std::vector<uint8_t>> Packets(const std::vector<uint8_t>& sub_packet,
+                                          bool idle = true) {
   std::vector<std::vector<uint8_t>> packets;
   for (size_t at = 0; at < sub_packet.size(); at += kPacket) {
     const size_t n = std::min(kPacket, sub_packet.size() - at);

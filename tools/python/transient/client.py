@@ -121,7 +121,9 @@ class Client:
         the iterator) to end the stream. It also ends when the source does (a replay's end).
 
         products: names ("depth", "range", "amplitude", "c0", "flags", "moment_state",
-            "slices", "cumulative", "direct_indirect", "moment_depth") or numbers.
+            "slices", "cumulative", "direct_indirect", "moment_depth", "confidence") or
+            numbers; a camera whose harmonics are not 1..m (the Kinect v2) serves only range,
+            depth, amplitude, flags, moment_depth and confidence (Info.products lists them).
         encoding: "float32" (32FC1), "float16" (16FC1) or "mm" (16UC1 millimetres; also its
             proto name "uint16_mm";
             range and depth only); decoded to float32 alike (see Image). FLAGS is always 8UC1

@@ -43,10 +43,12 @@ std::string TauText(const TransientFrame& frame, int bin) {
                          RangeOfTimeOfFlightNs(tau_ns), bin, frame.bins());
 }
 
-constexpr std::array<FlagCategory, 6> kFlagCategories = {{
+constexpr std::array<FlagCategory, 8> kFlagCategories = {{
     {kFlagSaturated, "saturated (8)", {213, 94, 0}},
     {kFlagInvalidInput, "invalid input (2)", {0, 0, 0}},
     {kFlagNoReturn, "no return (4)", {230, 159, 0}},
+    {kFlagAmbiguous, "ambiguous (32)", {204, 121, 167}},
+    {kFlagLowAmplitude, "low amplitude (64)", {0, 114, 178}},
     {kFlagOutlierFilled, "outlier-filled (16)", {0, 158, 115}},
     {kFlagBiased, "biased (1)", {86, 180, 233}},
     {0, "no flag", {235, 235, 235}},

@@ -72,8 +72,8 @@ ImageFigure DirectFigure(const TransientFrame& frame, double scale);
 ImageFigure IndirectFigure(const TransientFrame& frame, double scale);
 
 // The PixelFlag bits as categories: a pixel takes the colour of its first bit in the order
-// saturated, invalid input, no return, outlier-filled, biased; the legend gives each bit's
-// share of all pixels.
+// saturated, invalid input, no return, ambiguous, low amplitude, outlier-filled, biased; the
+// legend gives each bit's share of all pixels.
 struct FlagCategory {
   uint8_t bit;  // 0 for "no flag"
   const char* name;

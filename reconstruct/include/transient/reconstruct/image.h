@@ -30,6 +30,9 @@ enum PixelFlag : uint8_t {
   kFlagNoReturn = 1 << 2,      // no peak / return above the relative threshold
   kFlagSaturated = 1 << 3,     // a raw frame of this pixel was saturated (also invalid)
   kFlagOutlierFilled = 1 << 4, // filled from the previous frame after an outlier capture
+  // Phase unwrapping (phase_unwrapping.h), on cameras whose harmonics are not 1..m:
+  kFlagAmbiguous = 1 << 5,     // two distances explain the phases equally well: no range
+  kFlagLowAmplitude = 1 << 6,  // too little modulated light: no range
 };
 // The bits a MomentImage carries into the products of its pixels.
 inline constexpr uint8_t kMomentImageFlags = kFlagSaturated | kFlagOutlierFilled;

@@ -11,8 +11,8 @@
 // harmonic J (n = 0..J-1); each is scored, the best refined by Newton steps on S, and
 // - confidence = S(theta*) / sum_j |c_j| in [-1, 1]: 1 when the phases agree exactly (the
 //   coherence of the frequencies; multipath and noise lower it);
-// - kFlagAmbiguous when another candidate's normalised score comes within `ambiguity_margin`
-//   of the best: the frequencies cannot tell the two distances apart (noise, or mixed
+// - kFlagAmbiguous (image.h) when another candidate's normalised score comes within
+//   `ambiguity_margin` of the best: the frequencies cannot tell the two distances apart (noise, or mixed
 //   returns), so the pixel gets no range rather than a wrong one;
 // - kFlagLowAmplitude when the mean |c_j| is below `min_amplitude` (sensor units).
 // Such pixels and invalid ones hold NaN. Unlike an integer-lattice (Chinese remainder) unwrap
@@ -28,10 +28,6 @@
 #include "transient/reconstruct/image.h"
 
 namespace transient {
-
-// Flag bits of this method, beside image.h's.
-inline constexpr uint8_t kFlagAmbiguous = 1 << 5;     // two distances explain the phases
-inline constexpr uint8_t kFlagLowAmplitude = 1 << 6;  // too little modulated light
 
 struct UnwrapOptions {
   double base_frequency_hz = 8e6;  // f: the range is unambiguous within c / (2f)
