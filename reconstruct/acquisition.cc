@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <numeric>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -115,6 +116,13 @@ absl::Status ScheduleOptions::Validate() const {
       }
       seen[static_cast<size_t>(j)] = true;
       highest = std::max(highest, j);
+    }
+    int common = 0;
+    for (int j : harmonics) common = std::gcd(common, j);
+    if (common > 1) {
+      return violated("harmonics", FormatHarmonicList(harmonics),
+                      absl::StrCat("no common factor (", common, "): describe them as harmonics of ",
+                                   common, " * base_frequency_hz"));
     }
     if (order != highest) {
       return violated("order", order,
@@ -272,7 +280,12 @@ std::string AcquisitionSchedule::Describe() const {
   if (options_.sampling != SamplingScheme::kFourBucket) {
     absl::StrAppend(&sampling, " (n_phi = ", options_.phase_steps, ")");
   }
-  if (options_.buckets != 4) absl::StrAppend(&sampling, ", ", options_.buckets, "-step");
+  if (options_.buckets != 4) {
+    // kFourBucket is one phase per exposure; with N steps it is N-step sampling.
+    sampling = options_.sampling == SamplingScheme::kFourBucket
+                   ? absl::StrCat(options_.buckets, "-step")
+                   : absl::StrCat(sampling, ", ", options_.buckets, "-step");
+  }
   std::string zeroth(ZerothSchemeName(options_.zeroth));
   if (options_.zeroth == ZerothScheme::kLowFrequencyProxy) {
     absl::StrAppend(&zeroth, " at ", FrequencyText(options_.proxy_frequency_hz));

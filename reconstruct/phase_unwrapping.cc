@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <numeric>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -46,11 +47,17 @@ absl::Status UnwrapOptions::Validate() const {
     return violated("harmonics", absl::StrJoin(harmonics, ","),
                     absl::StrCat("1 to ", kMaxOrder, " harmonics"));
   }
+  int common = 0;
   for (int j : harmonics) {
     if (j < 1 || j > kMaxOrder) {
       return violated("harmonics", absl::StrJoin(harmonics, ","),
                       absl::StrCat("each in 1..", kMaxOrder));
     }
+    common = std::gcd(common, j);
+  }
+  if (common > 1) {  // every distance would have `common` equal candidates
+    return violated("harmonics", absl::StrJoin(harmonics, ","),
+                    absl::StrCat("no common factor (", common, ")"));
   }
   if (!(min_amplitude >= 0.0) || !std::isfinite(min_amplitude)) {
     return violated("min_amplitude", min_amplitude, "finite and >= 0");
@@ -116,19 +123,24 @@ UnwrappedPixel UnwrapPixel(std::span<const ComplexF> moments, const UnwrapOption
   }
 
   // Newton steps towards the peak of S near the best candidate, each at most a quarter of the
-  // candidates' spacing so that the refinement cannot jump to another candidate's peak.
+  // candidates' spacing and only while S rises, so that the refinement stays on its peak.
   double theta = theta0 + kTwoPi * best_n / highest;
   const double max_step = 0.25 * kTwoPi / highest;
+  double best_theta = theta;
   for (int k = 0; k < options.newton_steps; ++k) {
     const Score s = Evaluate({c, count}, harmonics, theta);
-    if (!(s.curvature < 0.0)) break;  // not at a maximum: keep the candidate
+    if (!(s.curvature < 0.0)) break;  // not at a maximum: keep the best point so far
     theta -= std::clamp(s.slope / s.curvature, -max_step, max_step);
+    const double value = Evaluate({c, count}, harmonics, theta).value;
+    if (!(value > best)) break;
+    best = value;
+    best_theta = theta;
   }
-  const double refined = Evaluate({c, count}, harmonics, theta).value;
-  if (refined > best) best = refined;
+  theta = best_theta;
 
   out.confidence = best / total;
-  if (count > 1 && highest > 1 && (best - second) / total < options.ambiguity_margin) {
+  // One harmonic J > 1 alone has J equal candidates: always ambiguous.
+  if (highest > 1 && (best - second) / total < options.ambiguity_margin) {
     out.flags |= kFlagAmbiguous;
     out.range_m = kNaN;
     return out;

@@ -135,7 +135,7 @@ TEST(MultiFrequency, UnwrappingAtLeastAsGoodAsLibfreenect2AndTheTwoReturnFitBett
   MultiFrequencyOptions options;
   options.width = 41;  // the scenes' field of view at a coarser resolution
   options.height = 30;
-  options.pixel_stride = 8;  // the two-return fit's grid search is slow under the sanitizers
+  options.pixel_stride = 16;  // the two-return fit's grid search is slow under the sanitizers
   options.noise = {false};
   absl::StatusOr<std::vector<MultiFrequencyRow>> rows = RunMultiFrequency(options);
   ASSERT_THAT(rows.status(), IsOk());
@@ -150,7 +150,7 @@ TEST(MultiFrequency, UnwrappingAtLeastAsGoodAsLibfreenect2AndTheTwoReturnFitBett
   for (const std::string scene : {"corner", "mirrors"}) {
     const MultiFrequencyRow& ours = find(scene, UnwrapMethod::kMaximumLikelihood);
     const MultiFrequencyRow& theirs = find(scene, UnwrapMethod::kLibfreenect2);
-    EXPECT_GT(ours.pixels, 100) << scene;
+    EXPECT_GT(ours.pixels, 50) << scene;
     EXPECT_GE(ours.found_share, theirs.found_share) << scene;
     EXPECT_LE(ours.wrap_errors, theirs.wrap_errors) << scene;
     EXPECT_LE(ours.median_abs_mm, theirs.median_abs_mm) << scene;

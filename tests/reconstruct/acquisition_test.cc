@@ -239,6 +239,10 @@ TEST(ScheduleOptions, ValidateNamesFieldValueAndRule) {
   o.order = 2;
   o.harmonics = {2, 2};
   check(o, "harmonics = 2,2. Violated constraint: distinct harmonics (2 twice)");
+  o.order = 4;
+  o.harmonics = {2, 4};
+  check(o, "harmonics = 2,4. Violated constraint: no common factor (2): describe them as "
+           "harmonics of 2 * base_frequency_hz");
 }
 
 // The Kinect v2's schedule (research/libusb.md §1.5): harmonics 10, 2, 15 of 8 MHz in that
@@ -267,8 +271,7 @@ TEST(AcquisitionSchedule, AHarmonicSetWithThreeStepsListsItsExposuresInCaptureOr
             "the schedule measures harmonics 2, 10, 15 of 8 MHz; MESE needs every harmonic "
             "1..15 (missing 1, 3-9, 11-14)");
   EXPECT_EQ(schedule->Describe(),
-            "f = 8 MHz, harmonics 10, 2, 15, four-bucket, 3-step, zeroth: estimated, 1 take: 9 "
-            "raw frames");
+            "f = 8 MHz, harmonics 10, 2, 15, 3-step, zeroth: estimated, 1 take: 9 raw frames");
   // A set that is 1..m after all can be reconstructed.
   o.order = 3;
   o.harmonics = {3, 1, 2};

@@ -144,6 +144,11 @@ TEST(UnwrapOptions, ValidateNamesFieldValueAndRule) {
   EXPECT_THAT(o.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
                                      HasSubstr("harmonics = 2,17. Violated constraint: each in")));
   o = Kinect();
+  o.harmonics = {2, 4};  // every distance would have a twin half the range away
+  EXPECT_THAT(o.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
+                                     HasSubstr("harmonics = 2,4. Violated constraint: no "
+                                               "common factor (2)")));
+  o = Kinect();
   o.base_frequency_hz = 0.0;
   EXPECT_THAT(o.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
                                      HasSubstr("base_frequency_hz = 0")));

@@ -101,7 +101,9 @@ class Kinect2Source final : public CaptureSource {
     camera_.distortion = info.intrinsics.distortion;
     camera_.model = absl::StrCat("Microsoft Kinect v2 (serial ", info.serial, ", firmware ",
                                  info.firmware, ")");
-    camera_.frame_period_s = kFramePeriodS / kSubFrames;
+    // Nine raw frames per 33.25 ms frame (the tenth sub-frame's slot shared out, like the
+    // simulated Kinect v2's): cycle period = raw frames per cycle x frame period.
+    camera_.frame_period_s = kFramePeriodS / kCorrelationSubFrames;
   }
   ~Kinect2Source() override { (void)Stop(); }
 
@@ -144,7 +146,7 @@ class Kinect2Source final : public CaptureSource {
     if (next_ >= current_.size()) {
       std::unique_lock<std::mutex> lock(mu_);
       const absl::Time deadline = absl::Now() + timeout;
-      while (queue_.empty() && !device_->lost()) {
+      while (queue_.empty() && !device_->lost() && !device_->stalled()) {
         const absl::Duration left = deadline - absl::Now();
         if (left <= absl::ZeroDuration()) {
           return absl::DeadlineExceededError(
@@ -152,9 +154,14 @@ class Kinect2Source final : public CaptureSource {
         }
         ready_.wait_for(lock, absl::ToChronoNanoseconds(std::min(left, absl::Milliseconds(50))));
       }
-      if (queue_.empty()) {
+      if (queue_.empty() && device_->lost()) {
         return absl::UnavailableError(absl::StrCat("Kinect v2 serial ", device_->info().serial,
                                                    " was unplugged (", uri_, ")"));
+      }
+      if (queue_.empty()) {
+        return absl::UnavailableError(absl::StrCat(
+            "Kinect v2 serial ", device_->info().serial, " stopped streaming: no transfer could ",
+            "be resubmitted (", device_->transfer_errors(), " transfer errors; ", uri_, ")"));
       }
       current_ = std::move(queue_.front());
       queue_.pop_front();
@@ -242,8 +249,10 @@ class Kinect2Source final : public CaptureSource {
   std::deque<std::vector<SubFrame>> queue_;
   int64_t dropped_ = 0;
 
-  // The first complete frame's footer: set on the event thread before that frame is queued,
-  // read by the consumer after it took a frame from the queue (both under mu_).
+  // The first complete frame's footer: written once, on the event thread under mu_ before
+  // that frame is queued; read by the consumer after it took a frame from the queue under mu_
+  // (so the write happens before). Kept across Stop and Start: the camera's footer counters
+  // run on (unverified on a camera: one that restarts them would restart the cycles too).
   bool have_first_ = false;
   uint32_t first_sequence_ = 0, first_timestamp_ = 0;
 

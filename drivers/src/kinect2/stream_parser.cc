@@ -78,8 +78,9 @@ void FrameAssembler::Add(SubFrame&& subframe) {
     ++counts_.subframes_ninth;
     return;
   }
-  if (have_done_ && sequence == done_sequence_) {
-    ++counts_.subframes_stray;  // late, of a frame already delivered or dropped
+  // Late: of a frame already delivered or dropped, or older (sequences compared modulo 2^32).
+  if (have_done_ && static_cast<int32_t>(sequence - done_sequence_) <= 0) {
+    ++counts_.subframes_stray;
     return;
   }
   if (have_frame_ && sequence != sequence_) {

@@ -44,7 +44,8 @@ struct StreamCounts {
   int64_t packets = 0;
   int64_t packet_errors = 0;        // packets with a failed status
   int64_t subframes = 0;            // delivered
-  int64_t subpackets_lost = 0;      // cut by a failed packet
+  int64_t subpackets_lost = 0;      // cut by a failed packet (a failed idle packet between
+                                    // sub-frames counts too: which it was cannot be told)
   int64_t subpackets_short = 0;     // ended (short or zero-length packet) before they were whole
   int64_t subpackets_too_long = 0;  // more bytes than a sub-packet before it ended
   int64_t bad_footers = 0;          // whole, but the footer's length or sub-frame was wrong

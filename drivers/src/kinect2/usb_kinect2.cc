@@ -157,6 +157,10 @@ struct UsbKinect2::Impl {
       if (r != 0) return Error(r, absl::StrCat("the response to command ", name));
       response.resize(static_cast<size_t>(moved));
     }
+    if (max_response > 0 && CheckComplete(response, seq).ok()) {
+      return absl::DataLossError(absl::StrCat(camera, ": command ", name,
+                                              " was completed without its response data"));
+    }
     uint8_t complete[64];
     r = libusb_bulk_transfer(handle, kCommandIn, complete, sizeof(complete), &moved, TimeoutMs());
     if (r != 0) return Error(r, absl::StrCat("the completion of command ", name));
@@ -211,7 +215,12 @@ struct UsbKinect2::Impl {
     while (true) {
       const int in = in_flight.load();
       if (in == 0 && (stopping.load() || owner->lost_.load())) return;
-      if (stopping.load() && absl::GetCurrentTimeNanos() > stop_deadline_ns.load()) return;
+      if (stopping.load()) {
+        if (absl::GetCurrentTimeNanos() > stop_deadline_ns.load()) return;
+        // A callback that checked `stopping` just before Stop set it has resubmitted its
+        // transfer after Stop's cancel: cancel again (NOT_FOUND for the others, harmless).
+        for (libusb_transfer* transfer : transfers) libusb_cancel_transfer(transfer);
+      }
       timeval tv{0, 50'000};
       libusb_handle_events_timeout_completed(context, &tv, nullptr);
     }
@@ -234,6 +243,11 @@ absl::StatusOr<std::unique_ptr<UsbKinect2>> UsbKinect2::Open(const UsbKinect2Opt
   }
   libusb_device** list = nullptr;
   const ssize_t count = libusb_get_device_list(impl->context, &list);
+  if (count < 0) {
+    return absl::UnavailableError(absl::StrCat(
+        "libusb: cannot list the USB devices (", libusb_error_name(static_cast<int>(count)),
+        "); in a container, pass /dev/bus/usb through"));
+  }
   struct Candidate {
     libusb_device* device;
     libusb_device_descriptor descriptor;
@@ -379,6 +393,10 @@ absl::StatusOr<std::unique_ptr<UsbKinect2>> UsbKinect2::Open(const UsbKinect2Opt
 absl::Status UsbKinect2::Start(PacketSink sink) {
   Impl& d = *impl_;
   if (d.started) return absl::FailedPreconditionError(absl::StrCat(d.camera, " already streams"));
+  if (d.in_flight.load() > 0) {
+    return absl::InternalError(absl::StrCat(d.camera, ": ", d.in_flight.load(),
+                                            " transfers of the last stream never came back"));
+  }
   for (auto params : {std::vector<uint32_t>{1, 0x00640064}, std::vector<uint32_t>{0}}) {
     if (absl::StatusOr<std::vector<uint8_t>> r = d.Command(kSetMode, params, 0); !r.ok()) {
       return r.status();
@@ -417,6 +435,12 @@ absl::Status UsbKinect2::Start(PacketSink sink) {
   const size_t bytes = static_cast<size_t>(d.options.packets) * kIsoPacketBytes;
   for (int i = 0; i < d.options.transfers; ++i) {
     libusb_transfer* transfer = libusb_alloc_transfer(d.options.packets);
+    if (transfer == nullptr) {
+      d.started = true;  // what was submitted must be cancelled
+      (void)Stop();
+      return absl::ResourceExhaustedError(
+          absl::StrCat(d.camera, ": libusb cannot allocate an iso transfer"));
+    }
     d.buffers.emplace_back(bytes);
     libusb_fill_iso_transfer(transfer, d.handle, kDepthEndpoint, d.buffers.back().data(),
                              static_cast<int>(bytes), d.options.packets, &Impl::OnTransfer, &d, 0);
@@ -433,6 +457,10 @@ absl::Status UsbKinect2::Start(PacketSink sink) {
   d.started = true;
   d.events = std::thread([&d] { d.EventLoop(); });
   return absl::OkStatus();
+}
+
+bool UsbKinect2::stalled() const {
+  return impl_->started && !impl_->stopping.load() && impl_->in_flight.load() == 0;
 }
 
 absl::Status UsbKinect2::Stop() {

@@ -3,8 +3,10 @@
 // isochronous transfers on endpoint 0x84 with the event thread that reaps them
 // (../shared/research/libusb.md §1.1, §1.2, §7.5).
 //
-// Threads: Open, Start and Stop from one thread; the packet sink runs on the event thread,
-// which must never block on the consumer (the source queues with drop-oldest).
+// Threads: Open, Start and Stop from one thread. The packet sink runs on the event thread, and
+// on the caller's thread while Start or Stop reap transfers themselves (a failed Start, the
+// commands of Stop): it must never block on the consumer, nor take a lock the caller holds
+// around Start or Stop (the source queues with drop-oldest and holds no lock around them).
 #pragma once
 
 #include <atomic>
@@ -89,6 +91,9 @@ class UsbKinect2 {
 
   // The device went away (a transfer or command said so).
   bool lost() const { return lost_.load(); }
+  // Streaming, but no transfer is in flight any more: every resubmission failed (usbfs memory,
+  // I/O errors) without the device being lost. Nothing more will come until Stop and Start.
+  bool stalled() const;
   // Transfers that completed with an error status (not cancelled, not lost) and resubmissions
   // that failed.
   int64_t transfer_errors() const { return transfer_errors_.load(); }

@@ -437,7 +437,8 @@ std::string FormatSimulatorUri(const SimulatorOptions& o) {
   const ScheduleOptions& s = o.schedule;
   number("f", s.base_frequency_hz, d.schedule.base_frequency_hz);
   if (s.harmonics != d.schedule.harmonics) {
-    parts.push_back(absl::StrCat("harmonics=", FormatHarmonicList(s.harmonics)));
+    parts.push_back(absl::StrCat(
+        "harmonics=", s.harmonics.empty() ? "all" : FormatHarmonicList(s.harmonics)));
   }
   if (s.harmonics.empty()) integer("m", s.order, d.schedule.order);
   integer("buckets", s.buckets, d.schedule.buckets);

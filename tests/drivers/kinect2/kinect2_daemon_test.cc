@@ -1,6 +1,6 @@
 // transientd and `transient record` on usb:kinect2, the emulated Kinect v2 showing the simulated
 // Kinect v2's corner (simulated_kinect2.h) through Debian's real libusb: depth against the
-// scene's truth as close as through sim:, the transient products refused naming the missing
+// scene's truth as close as the same simulated frames give through sim:'s path, the transient products refused naming the missing
 // harmonics, the source's counters in GetStats, and a recording that replays to the live
 // camera's raw frames and calibration. A real daemon in this process, real gRPC on loopback.
 #include <gmock/gmock.h>
@@ -21,6 +21,8 @@
 #include "tools/transient/commands/record_command.h"
 #include "transient/drivers/calibration_capture.h"
 #include "transient/drivers/capture_source.h"
+#include "transient/reconstruct/frame_pipeline.h"
+#include "transient/reconstruct/frame_products.h"
 #include "transient/reconstruct/percentile.h"
 
 namespace transient::kinect2 {
@@ -108,18 +110,29 @@ TEST_F(Kinect2DaemonTest, ServesDepthAsCloseToTheTruthAsTheSimulatorAndRefusesTr
     EXPECT_EQ(counters["iso_packet_errors"], 0);
   }
   {
-    PipelineOptions options{.source_uri = kScene};
+    // The same frames through sim:'s path: the simulator's raw frames of the cycle the camera
+    // shows, measured with a calibration against the simulated camera's Dirac at zero, then
+    // unwrapped as the daemon does.
     absl::StatusOr<std::unique_ptr<CaptureSource>> calibration =
         OpenSource("sim:calibration?camera=kinect2&pace=fast");
     ASSERT_THAT(calibration.status(), IsOk());
     absl::StatusOr<CalibrationCapture> measured = CaptureCalibration(**calibration, 4);
     ASSERT_THAT(measured.status(), IsOk());
-    options.calibration = std::move(measured->table);
-    Daemon daemon(options);
-    absl::StatusOr<std::map<std::string, std::vector<float>>> images =
-        FirstDecodedFrame(daemon, Request({v1::RANGE}));
-    ASSERT_THAT(images.status(), IsOk());
-    sim_error = MedianRangeError((*images)["range"], truth->first_range_m);
+    absl::StatusOr<FramePipeline> pipeline = FramePipeline::Create(
+        scene_->schedule(), ImageGeometry{512, 424},
+        MeasureOptions{.calibration =
+                           std::make_shared<const CalibrationTable>(std::move(measured->table))},
+        SolveOptions{});
+    ASSERT_THAT(pipeline.status(), IsOk());
+    MomentImage moments;
+    ASSERT_THAT(pipeline->Measure(scene_->frames(), &moments), IsOk());
+    const ScheduleOptions& schedule = scene_->schedule().options();
+    std::shared_ptr<const FrameProducts> products = ComputeUnwrappedProducts(
+        moments, CameraInfo{},
+        UnwrapOptions{.base_frequency_hz = schedule.base_frequency_hz,
+                      .harmonics = schedule.MeasuredHarmonics()},
+        ProductNeeds{.range = true});
+    sim_error = MedianRangeError(products->range_m, truth->first_range_m);
   }
   // Measured: see docs/kinect2.md. The P0 tables undo the simulated camera's delays like the
   // calibration scene does; the 11-bit companding of the emulated camera is the simulator's.

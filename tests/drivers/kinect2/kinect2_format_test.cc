@@ -172,6 +172,50 @@ TEST(SubFrames, AreTheScheduleExposuresAndDemodulateLikeLibfreenect2) {
   EXPECT_DOUBLE_EQ(SubFrameExposure(8).frequency_hz, 120e6);
 }
 
+// libfreenect2's model with its P0 offset: sub-frame k of group g measures
+// m_k = O + B cos(phi + 2*pi*k/3 + p0), p0 = -P0 * 0.000031 * pi, and its demodulation
+// sum_k m_k exp(-i*(2*pi*k/3 + p0)) gives (3B/2) exp(i*phi) (research/libusb.md §1.5). Our
+// demodulation followed by the calibration of CalibrationFromP0 must find the same phi.
+TEST(P0Tables, DemodulationWithTheirCalibrationFindsLibfreenect2sPhase) {
+  const uint16_t p0_raw[3] = {11482, 2284, 17128};  // e.g. the rows' edge values it reports
+  const double phi[3] = {1.1, 4.0, 2.2};
+  std::vector<uint8_t> response(kP0ResponseBytes, 0);
+  const size_t table_bytes = 2 + 2 * 512 * 424 + 2;
+  for (int g = 0; g < 3; ++g) {  // pixel (0, 0) of a 1 x 1 crop: the table's first value
+    response[32 + g * table_bytes + 2] = static_cast<uint8_t>(p0_raw[g] & 0xFF);
+    response[32 + g * table_bytes + 3] = static_cast<uint8_t>(p0_raw[g] >> 8);
+  }
+  absl::StatusOr<CalibrationTable> table = CalibrationFromP0(response);
+  ASSERT_THAT(table.status(), IsOk());
+  absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(Schedule());
+  ASSERT_THAT(schedule.status(), IsOk());
+  std::vector<RawFrame> frames;
+  for (int s = 0; s < kCorrelationSubFrames; ++s) {
+    const int g = s / 3, k = s % 3;
+    const double p0 = -p0_raw[g] * 0.000031 * kPi;
+    RawFrame frame;
+    frame.config = SubFrameExposure(s);
+    frame.config.sequence = static_cast<uint64_t>(s);
+    frame.geometry = {1, 1};
+    frame.pixels = {static_cast<float>(700.0 + 90.0 * std::cos(phi[g] + 2.0 * kPi * k / 3.0 + p0))};
+    frames.push_back(frame);
+  }
+  absl::StatusOr<Demodulator> demodulator =
+      Demodulator::Create(*schedule, ImageGeometry{1, 1}, DemodulationOptions{});
+  ASSERT_THAT(demodulator.status(), IsOk());
+  MomentImage moments;
+  ASSERT_THAT(demodulator->Demodulate(frames, &moments), IsOk());
+  const int64_t n = 512 * 424;
+  for (int g = 0; g < 3; ++g) {
+    const int j = kGroupHarmonics[g];
+    const std::complex<double> z(moments.real_plane(j)[0], moments.imag_plane(j)[0]);
+    const std::complex<double> k(table->real[j * n], table->imag[j * n]);  // pixel 0
+    EXPECT_NEAR(std::remainder(std::arg(k * z) - phi[g], 2.0 * kPi), 0.0, 1e-5) << j;
+    // Without the calibration the phase is off by p0.
+    EXPECT_GT(std::abs(std::remainder(std::arg(z) - phi[g], 2.0 * kPi)), 0.05) << j;
+  }
+}
+
 TEST(P0Tables, BecomeAUnitModulusPhaseCalibrationPerHarmonic) {
   std::vector<uint8_t> response(kP0ResponseBytes + 100, 0);  // a tail after the tables
   const size_t table_bytes = 2 + 2 * 512 * 424 + 2;
@@ -192,7 +236,8 @@ TEST(P0Tables, BecomeAUnitModulusPhaseCalibrationPerHarmonic) {
     const size_t q = static_cast<size_t>(j * n + row * 512 + x);
     return std::complex<double>(table->real[q], table->imag[q]);
   };
-  // k = exp(+i * v * 0.000031 * pi): undoes libfreenect2's exp(-i * p0), p0 = -v * 0.000031*pi.
+  // k = exp(+i * v * 0.000031 * pi) = exp(-i * p0), p0 = -v * 0.000031 * pi: the rotation
+  // libfreenect2 applies to its demodulated phasor.
   EXPECT_NEAR(std::arg(factor(10, 10, 20)), 1000 * 0.000031 * kPi, 1e-6);
   EXPECT_NEAR(std::arg(factor(2, 10, 20)), 2000 * 0.000031 * kPi, 1e-6);
   EXPECT_NEAR(std::remainder(std::arg(factor(15, 300, 20)) - 3000 * 0.000031 * kPi, 2 * kPi),

@@ -1,7 +1,7 @@
 // usb:kinect2 streaming from the emulated Kinect v2 at the camera's rate (30 frames/s) with
 // random stream faults: no frame lost without a count, every delivered frame right, and no
 // growth of memory or file descriptors. `make test` runs it for TRANSIENT_KINECT2_STRESS_SECONDS
-// (2 by default: under the sanitizers the emulated camera runs at a third of its rate); the
+// (1.5 by default: under the sanitizers the emulated camera runs at a third of its rate); the
 // issue's ten minutes: TRANSIENT_KINECT2_STRESS_SECONDS=600 (docs/kinect2.md
 // has the measured run).
 #include <dirent.h>
@@ -52,9 +52,9 @@ int OpenFds() {
 TEST(Kinect2Stress, StreamsAtTheCameraRateWithRandomFaultsCountingEveryLoss) {
   ASSERT_TRUE(emu::EmulatedKinect2::Available());
   const char* env = std::getenv("TRANSIENT_KINECT2_STRESS_SECONDS");
-  const double seconds = env != nullptr ? std::atof(env) : 2.0;
+  const double seconds = env != nullptr ? std::atof(env) : 1.5;
   const int64_t frames = static_cast<int64_t>(seconds * 30.0);
-  ASSERT_GE(frames, 60);
+  ASSERT_GE(frames, 45);
 
   // At most one fault per frame, in one frame of 15, never in the first two or the last two.
   std::mt19937 rng(2026);

@@ -17,9 +17,11 @@ SimulatedKinect2::SimulatedKinect2(const std::string& scene_uri) {
   absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSource(scene_uri);
   if (!source.ok() || !(*source)->Start().ok()) return;
   const int steps = options->schedule.buckets;  // 3
+  schedule_ = (*source)->schedule();
   for (int n = 0; n < 9; ++n) {
     RawFrame frame;
     if (!(*source)->Next(absl::Seconds(30), &frame).ok()) return;
+    frames_.push_back(frame);
     // The sub-frame of this exposure: group of its harmonic, step k with bucket (3 - k) % 3.
     int group = 0;
     while (group < 3 && kGroupHarmonics[group] != frame.config.harmonic) ++group;

@@ -7,10 +7,12 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "tests/drivers/kinect2/emulated_kinect2.h"
+#include "transient/reconstruct/acquisition.h"
 
 namespace transient::kinect2::testing {
 
@@ -25,9 +27,14 @@ class SimulatedKinect2 {
   Renderer AsRenderer() const;
   // P0 tables whose phase undoes each pixel's modulation delay at each group's frequency.
   std::array<std::vector<uint16_t>, 3> P0Tables() const;
+  // The simulator's raw frames of the cycle, as sim: delivers them, with its schedule.
+  const std::vector<RawFrame>& frames() const { return frames_; }
+  const AcquisitionSchedule& schedule() const { return *schedule_; }
 
  private:
   bool ok_ = false;
+  std::vector<RawFrame> frames_;
+  std::optional<AcquisitionSchedule> schedule_;
   std::array<std::vector<float>, 9> subframes_;
   std::vector<double> delay_s_;
 };

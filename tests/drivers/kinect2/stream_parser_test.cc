@@ -151,6 +151,18 @@ TEST(FrameAssembler, AFrameWithASubFrameMissingIsDroppedWholeAndTheNextComes) {
   EXPECT_EQ(h.assembler.counts().frames, 1);
 }
 
+TEST(FrameAssembler, ASubFrameOlderThanTheLastFrameIsStrayAndCostsNothing) {
+  Harness h;
+  h.Frame(6);
+  h.Feed(Packets(SubPacket(7, 0, 1)));
+  h.Feed(Packets(SubPacket(5, 3, 1)));  // from before frame 6
+  for (uint32_t sub = 1; sub < 10; ++sub) h.Feed(Packets(SubPacket(7, sub, 1)));
+  ASSERT_EQ(h.frames.size(), 2u);
+  EXPECT_EQ(h.frames[1][0].footer.sequence, 7u);
+  EXPECT_EQ(h.assembler.counts().subframes_stray, 1);
+  EXPECT_EQ(h.assembler.counts().frames_incomplete, 0);
+}
+
 TEST(FrameAssembler, DuplicatesAndLateSubFramesAreStray) {
   Harness h;
   h.Feed(Packets(SubPacket(5, 0, 1)));

@@ -117,6 +117,14 @@ TEST(SimulatorUri, TheKinect2CameraIsAPresetThatTheOtherKeysChange) {
   ASSERT_THAT(full.status(), IsOk());
   EXPECT_EQ(full->width, 512);
   EXPECT_EQ(full->height, 424);
+  // Back to 1..m on the Kinect's camera: formatted as harmonics=all, which parses again (the
+  // daemon's calibration and takes rewrite the URI this way).
+  absl::StatusOr<SimulatorOptions> all =
+      ParseSimulatorUri("sim:corner?camera=kinect2&harmonics=all&m=3&f=20e6");
+  ASSERT_THAT(all.status(), IsOk());
+  EXPECT_TRUE(all->schedule.harmonics.empty());
+  EXPECT_THAT(FormatSimulatorUri(*all), HasSubstr("harmonics=all"));
+  ASSERT_THAT(ParseSimulatorUri(FormatSimulatorUri(*all)).status(), IsOk());
   EXPECT_THAT(ParseSimulatorUri("sim:corner?camera=kinect3").status(),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("camera = 'kinect3' is not accepted; expected generic or kinect2")));

@@ -21,7 +21,8 @@ namespace transient {
 
 // How each modulated exposure makes the effective modulation sinusoidal (thesis §8.3.1).
 enum class SamplingScheme {
-  kFourBucket,            // one phase shift per exposure; odd harmonics stay (prop. 8.3 needs more)
+  kFourBucket,            // one phase shift per exposure (with buckets != 4: N-step sampling);
+                          // odd harmonics stay (prop. 8.3 needs more)
   kArccos,                // n_phi equal sub-exposures at arccos(1 - (2k+1)/n_phi) (eq. 8.7)
   kHarmonicCancellation,  // n_phi sub-exposures at k*pi/(n_phi+1), time ~ sin((k+1)*pi/(n_phi+1))
 };                        // [Payne et al. 2010]
@@ -49,7 +50,7 @@ struct ScheduleOptions {
   int order = 3;                    // m, 1 <= m <= kMaxOrder; with `harmonics`, max(harmonics)
   // The harmonics measured, in capture order, when not all of 1..m: a real camera's set, e.g.
   // the Kinect v2's {10, 2, 15} of 8 MHz (80, 16, 120 MHz). Empty: 1..order. Distinct, each in
-  // 1..kMaxOrder. The moment reconstruction (MESE, Pisarenko, slices, cumulative, bounds) needs
+  // 1..kMaxOrder, without a common factor (2, 4 of f are 1, 2 of 2f: say so). The moment reconstruction (MESE, Pisarenko, slices, cumulative, bounds) needs
   // every harmonic 1..m (thesis §8.2: the Toeplitz matrix of c_0..c_m); on a schedule without
   // them only the products of phase_unwrapping.h can be computed (HasAllHarmonics()).
   std::vector<int> harmonics = {};

@@ -31,7 +31,8 @@ namespace transient {
 
 struct UnwrapOptions {
   double base_frequency_hz = 8e6;  // f: the range is unambiguous within c / (2f)
-  std::vector<int> harmonics;      // the measured j (ScheduleOptions::MeasuredHarmonics())
+  std::vector<int> harmonics;      // the measured j (ScheduleOptions::MeasuredHarmonics()),
+                                   // without a common factor
   double min_amplitude = 0.0;      // mean |c_j| below it: kFlagLowAmplitude; >= 0
   double ambiguity_margin = 0.05;  // in units of sum_j |c_j|; [0, 2]
   int newton_steps = 3;            // refinement of the best candidate; 0..16
