@@ -6,17 +6,13 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "kinect2/kinect2_format.h"
 
 namespace transient::kinect2 {
 namespace {
 
-uint32_t ReadU32(const uint8_t* p) {
-  return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
-         static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
-}
-
 float ReadFloat(const uint8_t* p) {
-  const uint32_t bits = ReadU32(p);
+  const uint32_t bits = LoadLe32(p);
   float value;
   std::memcpy(&value, &bits, sizeof(value));
   return value;
@@ -61,12 +57,12 @@ absl::Status CheckComplete(std::span<const uint8_t> block, uint32_t sequence) {
     return absl::DataLossError(absl::StrCat("response complete of ", block.size(),
                                             " bytes, expected ", kCompleteBytes));
   }
-  const uint32_t magic = ReadU32(block.data());
+  const uint32_t magic = LoadLe32(block.data());
   if (magic != kCompleteMagic) {
     return absl::DataLossError(absl::StrFormat(
         "response complete with magic 0x%08X, expected 0x%08X", magic, kCompleteMagic));
   }
-  const uint32_t got = ReadU32(block.data() + 4);
+  const uint32_t got = LoadLe32(block.data() + 4);
   if (got != sequence) {
     return absl::DataLossError(
         absl::StrCat("response complete for sequence ", got, ", expected ", sequence));
@@ -81,9 +77,9 @@ absl::StatusOr<std::string> ParseFirmwareVersion(std::span<const uint8_t> respon
                                             " bytes; expected at least ", (kMain + 1) * kEntry));
   }
   const uint8_t* e = response.data() + kMain * kEntry;
-  const uint32_t major_minor = ReadU32(e);
-  return absl::StrCat(major_minor >> 16, ".", major_minor & 0xFFFF, ".", ReadU32(e + 4), ".",
-                      ReadU32(e + 8));
+  const uint32_t major_minor = LoadLe32(e);
+  return absl::StrCat(major_minor >> 16, ".", major_minor & 0xFFFF, ".", LoadLe32(e + 4), ".",
+                      LoadLe32(e + 8));
 }
 
 absl::StatusOr<std::string> ParseSerial(std::span<const uint8_t> response) {
@@ -127,7 +123,7 @@ absl::StatusOr<uint32_t> ParseStatus(std::span<const uint8_t> response) {
     return absl::DataLossError(
         absl::StrCat("status response of ", response.size(), " bytes; expected 4"));
   }
-  return ReadU32(response.data());
+  return LoadLe32(response.data());
 }
 
 }  // namespace transient::kinect2

@@ -13,15 +13,6 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-uint32_t ReadU32(const uint8_t* p) {
-  return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
-         static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
-}
-
-uint16_t ReadU16(const uint8_t* p) {
-  return static_cast<uint16_t>(p[0] | p[1] << 8);
-}
-
 std::array<int16_t, 2048> MakeTable() {
   std::array<int16_t, 2048> table{};
   for (int code = 0; code < 1024; ++code) {
@@ -108,13 +99,13 @@ absl::Status UnpackSubImage(std::span<const uint8_t> payload, std::span<float> o
 Footer ParseFooter(std::span<const uint8_t, kFooterBytes> bytes) {
   Footer f;
   const uint8_t* p = bytes.data();
-  f.magic0 = ReadU32(p);
-  f.magic1 = ReadU32(p + 4);
-  f.timestamp = ReadU32(p + 8);
-  f.sequence = ReadU32(p + 12);
-  f.subsequence = ReadU32(p + 16);
-  f.length = ReadU32(p + 20);
-  for (size_t i = 0; i < f.fields.size(); ++i) f.fields[i] = ReadU32(p + 24 + 4 * i);
+  f.magic0 = LoadLe32(p);
+  f.magic1 = LoadLe32(p + 4);
+  f.timestamp = LoadLe32(p + 8);
+  f.sequence = LoadLe32(p + 12);
+  f.subsequence = LoadLe32(p + 16);
+  f.length = LoadLe32(p + 20);
+  for (size_t i = 0; i < f.fields.size(); ++i) f.fields[i] = LoadLe32(p + 24 + 4 * i);
   return f;
 }
 
@@ -168,7 +159,7 @@ absl::StatusOr<CalibrationTable> CalibrationFromP0(std::span<const uint8_t> resp
     float* re = table.real.data() + j * pixels;
     float* im = table.imag.data() + j * pixels;
     for (int64_t p = 0; p < pixels; ++p) {
-      const double phase = -P0Phase(ReadU16(values + 2 * p));
+      const double phase = -P0Phase(LoadLe16(values + 2 * p));
       re[p] = static_cast<float>(std::cos(phase));
       im[p] = static_cast<float>(std::sin(phase));
     }

@@ -22,6 +22,13 @@
 
 namespace transient::kinect2 {
 
+// Little-endian fields of the camera's blocks (footers, responses, tables).
+inline uint32_t LoadLe32(const uint8_t* p) {
+  return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
+         static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
+}
+inline uint16_t LoadLe16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | p[1] << 8); }
+
 inline constexpr int kWidth = 512;
 inline constexpr int kHeight = 424;
 inline constexpr int kBitsPerSample = 11;
