@@ -39,6 +39,15 @@ absl::StatusOr<FramePipeline> FramePipeline::Create(const AcquisitionSchedule& s
   return FramePipeline(*std::move(demodulator), measure, solve);
 }
 
+FramePipeline::FramePipeline(Demodulator demodulator, MeasureOptions measure, SolveOptions solve)
+    : demodulator_(std::move(demodulator)), measure_(std::move(measure)), solve_(solve) {
+  const ScheduleOptions& schedule = demodulator_.schedule().options();
+  if (!schedule.HasAllHarmonics()) {
+    smoothed_planes_ = schedule.MeasuredHarmonics();
+    smoothed_planes_.insert(smoothed_planes_.begin(), 0);
+  }
+}
+
 absl::Status FramePipeline::Measure(std::span<const RawFrame> cycle, MomentImage* moments,
                                     DemodulationReport* report) {
   if (absl::Status status = demodulator_.Demodulate(cycle, moments, report); !status.ok()) {
@@ -49,7 +58,8 @@ absl::Status FramePipeline::Measure(std::span<const RawFrame> cycle, MomentImage
       return status;
     }
   }
-  return GaussianSmooth(measure_.smoothing_sigma_px, moments);
+  // A harmonic set's other planes are zeros: only c_0 and the measured ones are smoothed.
+  return GaussianSmooth(measure_.smoothing_sigma_px, moments, smoothed_planes_);
 }
 
 absl::Status FramePipeline::SetCalibration(std::shared_ptr<const CalibrationTable> calibration) {

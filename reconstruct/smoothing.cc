@@ -79,7 +79,7 @@ absl::Status ValidateSmoothingSigma(double sigma_px) {
   return absl::OkStatus();
 }
 
-absl::Status GaussianSmooth(double sigma_px, MomentImage* moments) {
+absl::Status GaussianSmooth(double sigma_px, MomentImage* moments, std::span<const int> planes) {
   if (absl::Status status = ValidateSmoothingSigma(sigma_px); !status.ok()) return status;
   if (absl::Status status = moments->Validate(); !status.ok()) return status;
   if (sigma_px == 0.0) return absl::OkStatus();
@@ -120,9 +120,16 @@ absl::Status GaussianSmooth(double sigma_px, MomentImage* moments) {
       }
     }
   };
-  for (int j = 0; j <= m; ++j) {
+  auto smooth_both = [&](int j) {
     smooth_plane(moments->real_plane(j));
     smooth_plane(moments->imag_plane(j));
+  };
+  if (planes.empty()) {
+    for (int j = 0; j <= m; ++j) smooth_both(j);
+  }
+  for (int j : planes) {
+    assert(j >= 0 && j <= m);
+    smooth_both(j);
   }
   return absl::OkStatus();
 }

@@ -77,6 +77,25 @@ TEST(GaussianSmooth, MatchesADirectTwoDimensionalConvolution) {
   }
 }
 
+// The planes of a harmonic set: the listed ones come out as when all are smoothed, the others
+// as they were.
+TEST(GaussianSmooth, OnlyTheListedPlanesAreSmoothed) {
+  std::mt19937_64 rng(37);
+  const MomentImage before = RandomImage({19, 13}, 4, rng, 0.1);
+  MomentImage all = before, some = before;
+  ASSERT_THAT(GaussianSmooth(kDefaultSmoothingSigmaPx, &all), IsOk());
+  const int planes[] = {0, 3};
+  ASSERT_THAT(GaussianSmooth(kDefaultSmoothingSigmaPx, &some, planes), IsOk());
+  const int64_t n = before.geometry.pixel_count();
+  for (int j = 0; j <= 4; ++j) {
+    const MomentImage& want = (j == 0 || j == 3) ? all : before;
+    for (int64_t p = 0; p < n; ++p) {
+      ASSERT_EQ(some.real[j * n + p], want.real[j * n + p]) << j << " " << p;
+      ASSERT_EQ(some.imag[j * n + p], want.imag[j * n + p]) << j << " " << p;
+    }
+  }
+}
+
 TEST(GaussianSmooth, InvalidPixelsNeitherContributeNorChange) {
   std::mt19937_64 rng(32);
   const MomentImage before = RandomImage({19, 13}, 3, rng, 0.25);

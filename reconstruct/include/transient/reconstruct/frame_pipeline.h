@@ -13,6 +13,7 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -67,12 +68,12 @@ class FramePipeline {
   const SolveOptions& solve_options() const { return solve_; }
 
  private:
-  FramePipeline(Demodulator demodulator, MeasureOptions measure, SolveOptions solve)
-      : demodulator_(std::move(demodulator)), measure_(std::move(measure)), solve_(solve) {}
+  FramePipeline(Demodulator demodulator, MeasureOptions measure, SolveOptions solve);
 
   Demodulator demodulator_;
   MeasureOptions measure_;
   SolveOptions solve_;
+  std::vector<int> smoothed_planes_;  // empty: all (1..m measured)
 };
 
 }  // namespace transient

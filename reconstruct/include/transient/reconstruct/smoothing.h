@@ -2,6 +2,7 @@
 // reduce noise before reconstruction.
 #pragma once
 
+#include <span>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -32,7 +33,11 @@ absl::Status ValidateSmoothingSigma(double sigma_px);
 // their values and contribute nothing; valid pixels always have a non-zero denominator (their
 // own weight). sigma_px = 0 changes nothing. Linear in the moments, so it commutes with
 // calibration (a per-pixel factor does not commute; calibrate first).
+// `planes`: the planes j to smooth (the others are left as they are; each in 0..m); empty: all.
+// A schedule with a harmonic set (the Kinect v2's 2, 10, 15 of m = 15) has only those and c_0
+// to smooth, the other planes being zeros.
 // InvalidArgument for a bad sigma or an image failing MomentImage::Validate().
-absl::Status GaussianSmooth(double sigma_px, MomentImage* moments);
+absl::Status GaussianSmooth(double sigma_px, MomentImage* moments,
+                            std::span<const int> planes = {});
 
 }  // namespace transient
