@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <complex>
+#include <functional>
 #include <numbers>
 #include <random>
 #include <vector>
@@ -138,6 +139,29 @@ TEST(Footer, FieldsAreLittleEndianU32s) {
   EXPECT_EQ(f.fields[31], 0xDEADBEEFu);
 }
 
+// The moments of one pixel whose nine correlation sub-frames hold sample(g, k) (group g,
+// phase step k), through the demodulator with the camera's schedule.
+MomentImage DemodulateOnePixel(const std::function<double(int g, int k)>& sample) {
+  absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(Schedule());
+  EXPECT_THAT(schedule.status(), IsOk());
+  std::vector<RawFrame> frames;
+  for (int s = 0; s < kCorrelationSubFrames; ++s) {
+    RawFrame frame;
+    frame.config = SubFrameExposure(s);
+    frame.config.sequence = static_cast<uint64_t>(s);
+    frame.geometry = {1, 1};
+    frame.pixels = {static_cast<float>(sample(s / 3, s % 3))};
+    EXPECT_THAT(schedule->IndexOf(frame.config).status(), IsOk()) << s;
+    frames.push_back(frame);
+  }
+  absl::StatusOr<Demodulator> demodulator =
+      Demodulator::Create(*schedule, ImageGeometry{1, 1}, DemodulationOptions{});
+  EXPECT_THAT(demodulator.status(), IsOk());
+  MomentImage moments;
+  EXPECT_THAT(demodulator->Demodulate(frames, &moments), IsOk());
+  return moments;
+}
+
 TEST(SubFrames, AreTheScheduleExposuresAndDemodulateLikeLibfreenect2) {
   absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(Schedule());
   ASSERT_THAT(schedule.status(), IsOk());
@@ -145,22 +169,8 @@ TEST(SubFrames, AreTheScheduleExposuresAndDemodulateLikeLibfreenect2) {
   // Sub-frame k of a group measures m_k = O + B cos(phi + 2*pi*k/3) (libfreenect2's model,
   // which it demodulates with sum m_k exp(-i*2*pi*k/3) into (3B/2) exp(i*phi)).
   const double phi[3] = {0.7, 2.9, 5.1}, b[3] = {100.0, 80.0, 60.0};
-  std::vector<RawFrame> frames;
-  for (int s = 0; s < kCorrelationSubFrames; ++s) {
-    RawFrame frame;
-    frame.config = SubFrameExposure(s);
-    frame.config.sequence = static_cast<uint64_t>(s);
-    frame.geometry = {1, 1};
-    const int g = s / 3, k = s % 3;
-    frame.pixels = {static_cast<float>(500.0 + b[g] * std::cos(phi[g] + 2.0 * kPi * k / 3.0))};
-    ASSERT_THAT(schedule->IndexOf(frame.config).status(), IsOk()) << s;
-    frames.push_back(frame);
-  }
-  absl::StatusOr<Demodulator> demodulator =
-      Demodulator::Create(*schedule, ImageGeometry{1, 1}, DemodulationOptions{});
-  ASSERT_THAT(demodulator.status(), IsOk());
-  MomentImage moments;
-  ASSERT_THAT(demodulator->Demodulate(frames, &moments), IsOk());
+  const MomentImage moments = DemodulateOnePixel(
+      [&](int g, int k) { return 500.0 + b[g] * std::cos(phi[g] + 2.0 * kPi * k / 3.0); });
   for (int g = 0; g < 3; ++g) {
     const int j = kGroupHarmonics[g];
     const std::complex<double> c(moments.real_plane(j)[0], moments.imag_plane(j)[0]);
@@ -187,24 +197,10 @@ TEST(P0Tables, DemodulationWithTheirCalibrationFindsLibfreenect2sPhase) {
   }
   absl::StatusOr<CalibrationTable> table = CalibrationFromP0(response);
   ASSERT_THAT(table.status(), IsOk());
-  absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(Schedule());
-  ASSERT_THAT(schedule.status(), IsOk());
-  std::vector<RawFrame> frames;
-  for (int s = 0; s < kCorrelationSubFrames; ++s) {
-    const int g = s / 3, k = s % 3;
+  const MomentImage moments = DemodulateOnePixel([&](int g, int k) {
     const double p0 = -p0_raw[g] * 0.000031 * kPi;
-    RawFrame frame;
-    frame.config = SubFrameExposure(s);
-    frame.config.sequence = static_cast<uint64_t>(s);
-    frame.geometry = {1, 1};
-    frame.pixels = {static_cast<float>(700.0 + 90.0 * std::cos(phi[g] + 2.0 * kPi * k / 3.0 + p0))};
-    frames.push_back(frame);
-  }
-  absl::StatusOr<Demodulator> demodulator =
-      Demodulator::Create(*schedule, ImageGeometry{1, 1}, DemodulationOptions{});
-  ASSERT_THAT(demodulator.status(), IsOk());
-  MomentImage moments;
-  ASSERT_THAT(demodulator->Demodulate(frames, &moments), IsOk());
+    return 700.0 + 90.0 * std::cos(phi[g] + 2.0 * kPi * k / 3.0 + p0);
+  });
   const int64_t n = 512 * 424;
   for (int g = 0; g < 3; ++g) {
     const int j = kGroupHarmonics[g];

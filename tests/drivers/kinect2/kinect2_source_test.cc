@@ -158,28 +158,51 @@ TEST_F(Kinect2SourceTest, OpensStartsAndDeliversEachSubFrameWithItsFooterTime) {
   EXPECT_EQ(counters.at("frames_incomplete"), 0);
 }
 
+// The emulated frame numbers of the next `count` depth frames of the camera with `fault`,
+// each sub-frame checked to belong to its frame and to carry its samples; `source` receives the
+// opened source for its counters.
+std::vector<int> FramesWithFault(const emu::Fault& fault, int count,
+                                 std::unique_ptr<CaptureSource>* source,
+                                 std::unique_ptr<emu::EmulatedKinect2>* camera) {
+  emu::Options o;
+  o.renderer = Pattern();
+  o.faults.push_back(fault);
+  absl::StatusOr<std::unique_ptr<emu::EmulatedKinect2>> created =
+      emu::EmulatedKinect2::Create(std::move(o));
+  EXPECT_THAT(created.status(), IsOk());
+  if (!created.ok()) return {};
+  *camera = *std::move(created);
+  absl::StatusOr<std::unique_ptr<CaptureSource>> opened = OpenSource("usb:kinect2");
+  EXPECT_THAT(opened.status(), IsOk());
+  if (!opened.ok() || !(*opened)->Start().ok()) return {};
+  *source = *std::move(opened);
+  std::vector<int> delivered;
+  for (int n = 0; n < count; ++n) {
+    const std::vector<RawFrame> frames = NextFrame(**source);
+    if (frames.size() != 9) return delivered;
+    delivered.push_back(FrameOf(frames[0]));
+    for (int k = 0; k < 9; ++k) {
+      const RawFrame& f = frames[static_cast<size_t>(k)];
+      EXPECT_EQ(FrameOf(f), delivered.back()) << k;
+      for (auto [x, y] : {std::pair{77, 300}, std::pair{9, 50}}) {
+        EXPECT_EQ(f.pixels[y * 512 + x], Sample(static_cast<uint32_t>(delivered.back()), k, x, y))
+            << k << " " << x << " " << y;
+      }
+    }
+  }
+  return delivered;
+}
+
 // The libfreenect2 regression: a failed iso packet in the middle of a transfer. The packets
 // after it in the same transfer carry their own bytes at their own offsets; only the sub-frame
 // of the failed packet is lost.
 TEST_F(Kinect2SourceTest, AFailedIsoPacketLosesOneSubFrameAndTheRestOfItsTransferIsRight) {
-  emu::Options o = Defaults();
-  o.faults.push_back(emu::Fault::AtPacket(emu::Fault::kPacketError, 1, 3, 4));
-  Emulate(std::move(o));
-  absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSource("usb:kinect2");
-  ASSERT_THAT(source.status(), IsOk());
-  ASSERT_THAT((*source)->Start(), IsOk());
-  std::vector<int> delivered;
-  for (int n = 0; n < 3; ++n) {
-    const std::vector<RawFrame> frames = NextFrame(**source);
-    ASSERT_EQ(frames.size(), 9u);
-    delivered.push_back(FrameOf(frames[0]));
-    for (int k = 0; k < 9; ++k) {
-      const uint32_t frame = static_cast<uint32_t>(FrameOf(frames[static_cast<size_t>(k)]));
-      ASSERT_EQ(frames[static_cast<size_t>(k)].pixels[300 * 512 + 77], Sample(frame, k, 77, 300));
-    }
-  }
-  EXPECT_THAT(delivered, ::testing::ElementsAre(0, 2, 3));  // frame 1 lost sub-frame 3
-  const std::map<std::string, int64_t> counters = CountersOf(**source);
+  std::unique_ptr<CaptureSource> source;
+  EXPECT_THAT(FramesWithFault(emu::Fault::AtPacket(emu::Fault::kPacketError, 1, 3, 4), 3, &source,
+                              &camera_),
+              ::testing::ElementsAre(0, 2, 3));  // frame 1 lost sub-frame 3
+  ASSERT_NE(source, nullptr);
+  const std::map<std::string, int64_t> counters = CountersOf(*source);
   EXPECT_EQ(counters.at("iso_packet_errors"), 1);
   EXPECT_EQ(counters.at("subpackets_lost"), 1);
   EXPECT_EQ(counters.at("bad_footers"), 0);  // no sub-frame read from a shifted offset
@@ -198,25 +221,11 @@ class StreamFaultTest : public Kinect2SourceTest,
                         public ::testing::WithParamInterface<StreamFaultCase> {};
 
 TEST_P(StreamFaultTest, DropsTheFrameCountsWhyAndTheNextFramesAreRight) {
-  emu::Options o = Defaults();
-  o.faults.push_back(GetParam().fault);
-  Emulate(std::move(o));
-  absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSource("usb:kinect2");
-  ASSERT_THAT(source.status(), IsOk());
-  ASSERT_THAT((*source)->Start(), IsOk());
-  std::vector<int> delivered;
-  for (int n = 0; n < 3; ++n) {
-    const std::vector<RawFrame> frames = NextFrame(**source);
-    ASSERT_EQ(frames.size(), 9u);
-    delivered.push_back(FrameOf(frames[0]));
-    for (int k = 0; k < 9; ++k) {
-      const uint32_t frame = static_cast<uint32_t>(FrameOf(frames[static_cast<size_t>(k)]));
-      ASSERT_EQ(frame, static_cast<uint32_t>(delivered.back()));
-      ASSERT_EQ(frames[static_cast<size_t>(k)].pixels[50 * 512 + 9], Sample(frame, k, 9, 50));
-    }
-  }
-  EXPECT_THAT(delivered, ::testing::ElementsAre(0, 2, 3));
-  const std::map<std::string, int64_t> counters = CountersOf(**source);
+  std::unique_ptr<CaptureSource> source;
+  EXPECT_THAT(FramesWithFault(GetParam().fault, 3, &source, &camera_),
+              ::testing::ElementsAre(0, 2, 3));
+  ASSERT_NE(source, nullptr);
+  const std::map<std::string, int64_t> counters = CountersOf(*source);
   // A short or zero-length packet in the middle of a sub-frame cuts it in two pieces, each
   // ending before it is whole.
   const int64_t expected = std::string(GetParam().counter) == "subpackets_short" ? 2 : 1;
