@@ -16,6 +16,7 @@
 
 #include "CLI/CLI.hpp"
 #include "absl/strings/str_cat.h"
+#include "transient/wire/address.h"
 #include "absl/time/clock.h"
 #include "transient/drivers/calibration_capture.h"
 #include "transient/drivers/source_registry.h"
@@ -89,7 +90,7 @@ int Run(int argc, char** argv) {
   std::string source_uri = "sim:mirrors";
   std::string calibration_path;
   bool uncalibrated = false;
-  std::string listen = "127.0.0.1:50051";
+  std::string listen = wire::kDefaultAddress;
   std::string config_path;
   std::string port_file;
   double stats_interval_s = 10.0;

@@ -11,6 +11,7 @@
 #include "absl/status/statusor.h"
 #include "tools/transient/client/client_summary.h"
 #include "tools/transient/common/command_hooks.h"
+#include "transient/wire/address.h"
 
 namespace transient::tools {
 
@@ -27,7 +28,7 @@ struct ClientRoi {
 
 // `transient client [--connect ADDR] --products range,slices --frames N --out DIR`.
 struct ClientArgs {
-  std::string connect = "127.0.0.1:50051";  // gRPC target: host:port, or unix:PATH
+  std::string connect = wire::kDefaultAddress;  // gRPC target: host:port, or unix:PATH
   std::vector<std::string> products = {"range", "slices"};  // wire::ProductNames()
   int64_t frames = 30;   // frames with images to receive; 0 = --seconds decides
   double seconds = 0.0;  // wall-clock seconds to receive for; 0 = --frames decides

@@ -8,6 +8,7 @@
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
 #include "transient/service/pipeline.h"
+#include "transient/wire/address.h"
 
 namespace grpc {
 class Server;
@@ -16,7 +17,7 @@ class Server;
 namespace transient::service {
 
 struct ServerOptions {
-  std::string listen = "127.0.0.1:50051";  // host:port; port 0 = one chosen by the system
+  std::string listen = wire::kDefaultAddress;  // host:port; port 0 = one chosen by the system
   std::string version = "";
 };
 
