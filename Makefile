@@ -12,11 +12,14 @@ deps:
 	bash tools/install_deps.sh
 
 build: deps
-	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_TESTS=OFF $(CMAKE_FLAGS)
+	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_TESTS=OFF \
+	  -DCMAKE_INSTALL_PREFIX=$(PREFIX) $(CMAKE_FLAGS)
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
-# transientd and transient into PREFIX/bin, and the C++ client library with its headers and
-# CMake package (find_package(transient), target transient::client; client/README.md).
+# transientd and transient into PREFIX/bin, the generated protocol's shared library into
+# PREFIX/lib, the C++ client library with its headers and CMake package (find_package(transient),
+# target transient::client; client/README.md), and the OpenNI2 driver into the Drivers folder of
+# Debian's libOpenNI2 (openni2/README.md).
 install: build
 	cmake --install $(BUILD_DIR) --prefix $(PREFIX)
 

@@ -12,7 +12,7 @@ packages=(
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libzstd-dev libpng-dev libtiff-dev ffmpeg
   libglpk-dev
-  libumockdev-dev umockdev libusb-1.0-0-dev
+  libumockdev-dev umockdev libusb-1.0-0-dev libopenni2-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   python3 python3-numpy python3-h5py python3-grpcio python3-protobuf python3-zstandard
