@@ -77,6 +77,11 @@ absl::StatusOr<CaptureWriter> CaptureWriter::Create(const std::string& path,
   for (absl::Status status : {options.Validate(), CheckCamera(camera)}) {
     if (!status.ok()) return absl::InvalidArgumentError(absl::StrCat(path, ": ", status.message()));
   }
+  if (schedule.options().DeliversDepth()) {  // before anything is created
+    return absl::FailedPreconditionError(absl::StrCat(
+        path, ": ", schedule.options().MissingHarmonicsText("a capture file"), " (",
+        schedule.Describe(), ")"));
+  }
   std::error_code error;
   if (std::filesystem::exists(path, error)) {
     return absl::AlreadyExistsError(

@@ -18,6 +18,9 @@ constexpr int64_t kMaxCount = int64_t{1} << 20;
 }  // namespace
 
 absl::Status WriteScheduleAttributes(hid_t object, const ScheduleOptions& schedule) {
+  if (schedule.DeliversDepth()) {
+    return absl::FailedPreconditionError(schedule.MissingHarmonicsText("a schedule attribute set"));
+  }
   absl::Status status =
       h5::WriteDoubleAttribute(object, "base_frequency_hz", schedule.base_frequency_hz);
   status.Update(h5::WriteInt64Attribute(object, "order", schedule.order));

@@ -16,7 +16,10 @@
 
 namespace transient {
 
-// Writes the eight attributes (replacing attributes of those names). Internal when HDF5 fails.
+// Writes the eight attributes (replacing attributes of those names). Internal when HDF5 fails;
+// FailedPrecondition, writing nothing, for a depth camera's schedule (SamplingScheme::kDepth),
+// which no capture or calibration file holds. Reading refuses sampling "depth" the same way
+// (ParseSamplingScheme), InvalidArgument.
 absl::Status WriteScheduleAttributes(hid_t object, const ScheduleOptions& schedule);
 
 // Whether a missing `takes` is an error: calibration files written before the attribute

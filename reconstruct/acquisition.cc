@@ -12,6 +12,7 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "transient/reconstruct/physical_constants.h"
 
 namespace transient {
 namespace {
@@ -28,6 +29,7 @@ std::vector<SubExposure> MakeSubExposures(const ScheduleOptions& options) {
   std::vector<SubExposure> split;
   switch (options.sampling) {
     case SamplingScheme::kFourBucket:
+    case SamplingScheme::kDepth:  // no modulation; the split is unused
       split.push_back({0.0, 1.0});
       break;
     case SamplingScheme::kArccos:  // thesis eq. 8.7: equal shares
@@ -60,6 +62,16 @@ absl::string_view SamplingSchemeName(SamplingScheme scheme) {
     case SamplingScheme::kFourBucket: return "four-bucket";
     case SamplingScheme::kArccos: return "arccos";
     case SamplingScheme::kHarmonicCancellation: return "harmonic-cancellation";
+    case SamplingScheme::kDepth: return "depth";
+  }
+  return "unknown";
+}
+
+absl::string_view FrameContentName(FrameContent content) {
+  switch (content) {
+    case FrameContent::kModulated: return "modulated";
+    case FrameContent::kDepth: return "depth";
+    case FrameContent::kAmplitude: return "amplitude";
   }
   return "unknown";
 }
@@ -77,6 +89,11 @@ absl::StatusOr<SamplingScheme> ParseSamplingScheme(absl::string_view name) {
   for (SamplingScheme s : {SamplingScheme::kFourBucket, SamplingScheme::kArccos,
                            SamplingScheme::kHarmonicCancellation}) {
     if (name == SamplingSchemeName(s)) return s;
+  }
+  if (name == SamplingSchemeName(SamplingScheme::kDepth)) {
+    return absl::InvalidArgumentError(
+        "sampling scheme 'depth' is a depth camera's, which only its source declares: it holds "
+        "no modulated captures; expected four-bucket, arccos or harmonic-cancellation");
   }
   return absl::InvalidArgumentError(absl::StrCat(
       "unknown sampling scheme '", name, "'; expected four-bucket, arccos or harmonic-cancellation"));
@@ -147,10 +164,31 @@ absl::Status ScheduleOptions::Validate() const {
     return violated("exposure_s", exposure_s, "0 < exposure_s <= 10");
   }
   if (takes < 1 || takes > 1024) return violated("takes", takes, "1 <= takes <= 1024");
+  if (DeliversDepth()) {
+    if (!std::isfinite(max_depth_m) || max_depth_m <= 0.0) {
+      return violated("max_depth_m", max_depth_m, "finite and > 0 with sampling = depth");
+    }
+    if (takes != 1) {
+      return violated("takes", takes, "takes = 1 with sampling = depth (depth is not averaged)");
+    }
+    if (!harmonics.empty()) {
+      return violated("harmonics", FormatHarmonicList(harmonics),
+                      "empty with sampling = depth (a depth camera measures no harmonic)");
+    }
+  } else {
+    if (max_depth_m != 0.0) {
+      return violated("max_depth_m", max_depth_m,
+                      "0 unless sampling = depth (a modulated schedule's range limit is c/(2f))");
+    }
+    if (depth_amplitude) {
+      return violated("depth_amplitude", "true", "false unless sampling = depth");
+    }
+  }
   return absl::OkStatus();
 }
 
 std::vector<int> ScheduleOptions::MeasuredHarmonics() const {
+  if (DeliversDepth()) return {};
   if (!harmonics.empty()) return harmonics;
   std::vector<int> all(static_cast<size_t>(std::max(order, 0)));
   for (int j = 1; j <= order; ++j) all[static_cast<size_t>(j - 1)] = j;
@@ -158,6 +196,7 @@ std::vector<int> ScheduleOptions::MeasuredHarmonics() const {
 }
 
 bool ScheduleOptions::HasAllHarmonics() const {
+  if (DeliversDepth()) return false;
   if (harmonics.empty()) return true;
   std::vector<bool> seen(static_cast<size_t>(order) + 1, false);
   for (int j : harmonics) {
@@ -171,6 +210,10 @@ bool ScheduleOptions::HasAllHarmonics() const {
 
 std::string ScheduleOptions::MissingHarmonicsText(absl::string_view what) const {
   if (HasAllHarmonics()) return "";
+  if (DeliversDepth()) {
+    return absl::StrCat("the source delivers depth, not modulated captures: ", what,
+                        " needs modulated captures");
+  }
   std::vector<bool> seen(static_cast<size_t>(order) + 1, false);
   for (int j : harmonics) {
     if (j >= 1 && j <= order) seen[static_cast<size_t>(j)] = true;
@@ -190,6 +233,10 @@ std::string ScheduleOptions::MissingHarmonicsText(absl::string_view what) const 
                       FrequencyText(base_frequency_hz), "; ", what,
                       " needs every harmonic 1..", order, " (missing ", absl::StrJoin(runs, ", "),
                       ")");
+}
+
+double ScheduleOptions::UnambiguousRangeM() const {
+  return DeliversDepth() ? max_depth_m : UnambiguousRange(base_frequency_hz);
 }
 
 double BucketPhaseShift(int k, int buckets) { return 2.0 * kPi * k / buckets; }
@@ -232,6 +279,16 @@ absl::StatusOr<AcquisitionSchedule> AcquisitionSchedule::Create(const ScheduleOp
     buckets[static_cast<size_t>(k)] = BucketPhaseShift(k, options.buckets);
   }
 
+  if (options.DeliversDepth()) {
+    for (FrameContent content : {FrameContent::kDepth, FrameContent::kAmplitude}) {
+      if (content == FrameContent::kAmplitude && !options.depth_amplitude) break;
+      ExposureConfig e;
+      e.exposure_s = options.exposure_s;
+      e.content = content;
+      schedule.exposures_.push_back(e);
+    }
+    return schedule;
+  }
   for (int take = 0; take < options.takes; ++take) {
     auto add = [&](int harmonic, double frequency_hz, double shift, bool illumination) {
       ExposureConfig e;
@@ -264,7 +321,7 @@ absl::StatusOr<AcquisitionSchedule> AcquisitionSchedule::Create(const ScheduleOp
 absl::StatusOr<int> AcquisitionSchedule::IndexOf(const ExposureConfig& config) const {
   for (size_t i = 0; i < exposures_.size(); ++i) {
     const ExposureConfig& e = exposures_[i];
-    if (e.harmonic == config.harmonic && e.take == config.take &&
+    if (e.content == config.content && e.harmonic == config.harmonic && e.take == config.take &&
         e.illumination == config.illumination && Near(config.frequency_hz, e.frequency_hz) &&
         std::abs(config.phase_shift_rad - e.phase_shift_rad) <= kRelativeMatch &&
         Near(config.exposure_s, e.exposure_s)) {
@@ -276,6 +333,11 @@ absl::StatusOr<int> AcquisitionSchedule::IndexOf(const ExposureConfig& config) c
 }
 
 std::string AcquisitionSchedule::Describe() const {
+  if (options_.DeliversDepth()) {
+    return absl::StrCat("depth camera (Z up to ", options_.max_depth_m, " m)",
+                        options_.depth_amplitude ? ", with amplitude" : "", ": ",
+                        raw_frames_per_frame(), raw_frames_per_frame() == 1 ? " raw frame" : " raw frames");
+  }
   std::string sampling(SamplingSchemeName(options_.sampling));
   if (options_.sampling != SamplingScheme::kFourBucket) {
     absl::StrAppend(&sampling, " (n_phi = ", options_.phase_steps, ")");
@@ -301,6 +363,10 @@ std::string AcquisitionSchedule::Describe() const {
 }
 
 std::string DescribeExposure(const ExposureConfig& config) {
+  if (config.content != FrameContent::kModulated) {
+    return absl::StrCat(config.content == FrameContent::kDepth ? "depth (Z, m)" : "amplitude",
+                        ", take ", config.take);
+  }
   return absl::StrFormat(
       "harmonic %d (%s), phase shift %.4f rad, exposure %g ms, illumination %s, take %d",
       config.harmonic, FrequencyText(config.frequency_hz), config.phase_shift_rad,

@@ -77,6 +77,10 @@ absl::Status CalibrationTable::Validate() const {
 absl::Status CheckCalibrationMatches(const CalibrationTable& calibration,
                                      const ScheduleOptions& schedule, ImageGeometry geometry) {
   if (absl::Status status = calibration.Validate(); !status.ok()) return status;
+  if (schedule.DeliversDepth()) {
+    return absl::FailedPreconditionError(
+        schedule.MissingHarmonicsText("a calibration table (per-pixel factors of the moments)"));
+  }
   const ScheduleOptions& c = calibration.schedule;
   if (calibration.geometry != geometry) {
     return absl::FailedPreconditionError(absl::StrCat(

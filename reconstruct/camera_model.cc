@@ -46,6 +46,21 @@ void DepthFromRange(ImageGeometry geometry, const PinholeIntrinsics& intrinsics,
   }
 }
 
+void RangeFromDepth(ImageGeometry geometry, const PinholeIntrinsics& intrinsics,
+                    std::span<const float> depth_m, std::span<float> range_m) {
+  assert(static_cast<int64_t>(depth_m.size()) == geometry.pixel_count());
+  assert(range_m.size() == depth_m.size());
+  for (int y = 0; y < geometry.height; ++y) {
+    for (int x = 0; x < geometry.width; ++x) {
+      const size_t p = static_cast<size_t>(y) * geometry.width + x;
+      const float depth = depth_m[p];
+      range_m[p] = std::isfinite(depth) && depth > 0.0f
+                       ? static_cast<float>(depth / PixelRay(intrinsics, x, y).z)
+                       : std::numeric_limits<float>::quiet_NaN();
+    }
+  }
+}
+
 std::vector<float> DepthFromRange(ImageGeometry geometry, const PinholeIntrinsics& intrinsics,
                                   std::span<const float> range_m) {
   std::vector<float> depth(range_m.size());

@@ -82,6 +82,10 @@ absl::StatusOr<Demodulator> Demodulator::Create(const AcquisitionSchedule& sched
                                                    ". Violated constraint: width, height > 0"));
   }
   if (absl::Status status = options.Validate(); !status.ok()) return status;
+  if (schedule.options().DeliversDepth()) {
+    return absl::FailedPreconditionError(
+        schedule.options().MissingHarmonicsText("demodulation"));
+  }
   return Demodulator(schedule, geometry, options);
 }
 

@@ -190,4 +190,38 @@ std::shared_ptr<const FrameProducts> ComputeUnwrappedProducts(const MomentImage&
   return out;
 }
 
+std::shared_ptr<const FrameProducts> ComputeDepthProducts(std::span<const float> depth_m,
+                                                          std::span<const float> amplitude,
+                                                          const CameraInfo& camera,
+                                                          const ProductNeeds& needs,
+                                                          uint64_t sequence) {
+  const ImageGeometry geometry = camera.geometry;
+  const size_t pixels = static_cast<size_t>(geometry.pixel_count());
+  assert(depth_m.size() == pixels);
+  assert(amplitude.empty() || amplitude.size() == pixels);
+  auto out = std::make_shared<FrameProducts>();
+  out->sequence = sequence;
+  out->geometry = geometry;
+  out->depth_m.resize(pixels);
+  out->flags.assign(pixels, 0);
+  for (size_t p = 0; p < pixels; ++p) {
+    const float z = depth_m[p];
+    const bool valid = std::isfinite(z) && z > 0.0f;
+    out->depth_m[p] = valid ? z : std::numeric_limits<float>::quiet_NaN();
+    if (!valid) out->flags[p] = kFlagNoReturn;
+  }
+  out->range_m.resize(pixels);
+  RangeFromDepth(geometry, camera.intrinsics, out->depth_m, out->range_m);
+  if (needs.amplitude && !amplitude.empty()) out->amplitude.assign(amplitude.begin(), amplitude.end());
+  for (const MomentDepthSpec& spec : needs.moment_depth) {
+    if (spec.from_returns) continue;  // no returns without the moment reconstruction
+    absl::StatusOr<MomentDepthMapBuilder> builder =
+        MomentDepthMapBuilder::Create(geometry, spec.MapOptions());
+    if (!builder.ok()) continue;
+    auto map = std::make_shared<MomentDepthMap>();
+    if (builder->Build(out->depth_m, map.get()).ok()) out->moment_depth[spec] = std::move(map);
+  }
+  return out;
+}
+
 }  // namespace transient

@@ -615,6 +615,13 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
     stream_uri = impl_->source_uri;
     schedule = impl_->schedule;
   }
+  if (schedule->options().DeliversDepth()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "Calibrate: ",
+        schedule->options().MissingHarmonicsText(
+            "a calibration (per-pixel factors of the moments against a Dirac at zero)"),
+        "; ", stream_uri, " needs none"));
+  }
   if (uri.empty()) {
     absl::StatusOr<std::string> derived = CalibrationSourceFor(stream_uri);
     if (!derived.ok()) {
@@ -656,6 +663,15 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
 
 absl::StatusOr<RecordingStatus> Pipeline::StartRecording(const std::string& path,
                                                          uint64_t max_frames, int deflate_level) {
+  {
+    absl::MutexLock lock(&impl_->mu);
+    if (const ScheduleOptions& schedule = impl_->schedule->options(); schedule.DeliversDepth()) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "StartRecording: ", schedule.MissingHarmonicsText("the capture file format"),
+          " (transient-capture 1 holds modulated captures); ", impl_->source_uri,
+          " is a recording or a device of its own"));
+    }
+  }
   return impl_->recorder.Start(
       path, max_frames, deflate_level, impl_->started && !impl_->stopping.load(), [this] {
         absl::MutexLock lock(&impl_->mu);

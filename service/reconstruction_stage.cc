@@ -2,7 +2,10 @@
 #include "reconstruction_stage.h"
 
 #include <atomic>
+#include <span>
 #include <utility>
+
+#include "absl/strings/str_cat.h"
 
 namespace transient::service {
 namespace {
@@ -11,6 +14,35 @@ namespace {
 constexpr size_t kSolvedPoolSize = 8;
 
 }  // namespace
+
+absl::StatusOr<std::shared_ptr<const FrameProducts>> ReconstructionStage::RunDepth(
+    const CycleItem& cycle, const ReconstructionInputs& inputs) {
+  const ScheduleOptions& schedule = cycle.schedule->options();
+  if (inputs.calibration != nullptr) {  // Pipeline::Create and Calibrate refuse one already
+    return absl::FailedPreconditionError(
+        schedule.MissingHarmonicsText("a calibration table (per-pixel factors of the moments)"));
+  }
+  const size_t expected = schedule.depth_amplitude ? 2 : 1;
+  const size_t pixels = static_cast<size_t>(camera_.geometry.pixel_count());
+  if (cycle.frames.size() != expected) {
+    return absl::InvalidArgumentError(absl::StrCat("a depth camera's cycle of ",
+                                                   cycle.frames.size(), " frames; expected ",
+                                                   expected, " (", cycle.schedule->Describe(), ")"));
+  }
+  for (const RawFrame& frame : cycle.frames) {
+    if (frame.pixels.size() != pixels) {
+      return absl::InvalidArgumentError(absl::StrCat(DescribeFrame(frame.config), " has ",
+                                                     frame.pixels.size(), " pixels; expected ",
+                                                     pixels));
+    }
+  }
+  // The assembler delivers the cycle in schedule order: depth, then amplitude.
+  const std::span<const float> amplitude =
+      schedule.depth_amplitude ? std::span<const float>(cycle.frames[1].pixels)
+                               : std::span<const float>();
+  return ComputeDepthProducts(cycle.frames[0].pixels, amplitude, camera_, inputs.needs,
+                              sequence_++);
+}
 
 std::shared_ptr<SolvedImage> ReconstructionStage::RecycledSolvedImage() {
   for (const auto& candidate : solved_pool_) {
@@ -29,6 +61,7 @@ std::shared_ptr<SolvedImage> ReconstructionStage::RecycledSolvedImage() {
 absl::StatusOr<std::shared_ptr<const FrameProducts>> ReconstructionStage::Run(
     const CycleItem& cycle, const ReconstructionInputs& inputs) {
   const ReconstructionConfig& config = inputs.config;
+  if (cycle.schedule->options().DeliversDepth()) return RunDepth(cycle, inputs);
   if (schedule_ != cycle.schedule || config_version_ != inputs.config_version) {
     absl::StatusOr<FramePipeline> created = FramePipeline::Create(
         *cycle.schedule, cycle.frames.front().geometry,

@@ -41,6 +41,10 @@ class ReconstructionStage {
   int64_t rejected_frames() const { return static_cast<int64_t>(report_.rejected.size()); }
 
  private:
+  // A depth camera's cycle (SamplingScheme::kDepth): no demodulation, the products of the
+  // given depth (ComputeDepthProducts). InvalidArgument for a cycle of the wrong shape.
+  absl::StatusOr<std::shared_ptr<const FrameProducts>> RunDepth(const CycleItem& cycle,
+                                                                const ReconstructionInputs& inputs);
   // A solved image no published frame holds any more, or a new one.
   std::shared_ptr<SolvedImage> RecycledSolvedImage();
 

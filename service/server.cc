@@ -81,9 +81,18 @@ struct StreamPlan {
   int queue_frames = kDefaultQueueFrames;
 };
 
+// What a depth camera serves, for its refusals.
+std::string DepthCameraServes(const ScheduleOptions& schedule) {
+  return absl::StrCat("This camera serves RANGE, DEPTH, ",
+                      schedule.depth_amplitude ? "AMPLITUDE, " : "",
+                      "FLAGS and MOMENT_DEPTH of its depth");
+}
+
 // FailedPrecondition for a product the schedule cannot serve (ProductSpec::needs): the moment
 // reconstruction's on a camera's harmonic set, naming the missing harmonics, and the
-// unwrapping's confidence on a schedule with every harmonic.
+// unwrapping's confidence on a schedule with every harmonic. A depth camera
+// (SamplingScheme::kDepth) serves the products that need nothing (Needs::kAny), AMPLITUDE only
+// when it delivers an amplitude frame.
 absl::Status CheckScheduleServes(std::span<const v1::Product> products, bool moment_depth_of_returns,
                                  const ScheduleOptions& schedule) {
   const bool all = schedule.HasAllHarmonics();
@@ -92,6 +101,24 @@ absl::Status CheckScheduleServes(std::span<const v1::Product> products, bool mom
     ProductSpec::Needs needs = spec.needs;
     if (product == v1::MOMENT_DEPTH && moment_depth_of_returns) {
       needs = ProductSpec::Needs::kAllHarmonics;  // of the Pisarenko returns
+    }
+    if (schedule.DeliversDepth()) {
+      if (needs != ProductSpec::Needs::kAny) {
+        const std::string what =
+            needs == ProductSpec::Needs::kHarmonicSet
+                ? "the confidence of phase unwrapping"
+                : (product == v1::MOMENT_DEPTH ? "a moment depth map of the Pisarenko returns"
+                                               : "the moment reconstruction");
+        return absl::FailedPreconditionError(
+            absl::StrCat(v1::Product_Name(product), ": ", schedule.MissingHarmonicsText(what),
+                         ". ", DepthCameraServes(schedule)));
+      }
+      if (product == v1::AMPLITUDE && !schedule.depth_amplitude) {
+        return absl::FailedPreconditionError(absl::StrCat(
+            "AMPLITUDE: the source delivers depth without an amplitude image. ",
+            DepthCameraServes(schedule)));
+      }
+      continue;
     }
     if (needs == ProductSpec::Needs::kAllHarmonics && !all) {
       return absl::FailedPreconditionError(absl::StrCat(
@@ -166,9 +193,8 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
     plan.request.slice_phases = *std::move(phases);
   }
   if (plan.request.products.Has(v1::MOMENT_DEPTH)) {
-    const double base_frequency_hz = pipeline.schedule().options().base_frequency_hz;
     absl::StatusOr<MomentDepthSpec> spec = ResolveMomentDepthSpec(
-        r.moment_depth(), sensor, UnambiguousRange(base_frequency_hz));
+        r.moment_depth(), sensor, pipeline.schedule().options().UnambiguousRangeM());
     if (!spec.ok()) return spec.status();
     plan.request.moment_depth = *spec;
   }
@@ -408,7 +434,7 @@ class TransientServer::Service final : public v1::Transient::Service {
     }
     info->set_version(version_);
     info->set_state(ToProto(pipeline_->state()));
-    info->set_unambiguous_range_m(UnambiguousRange(o.base_frequency_hz));
+    info->set_unambiguous_range_m(o.UnambiguousRangeM());
     return grpc::Status::OK;
   }
 
@@ -596,6 +622,13 @@ class TransientServer::Service final : public v1::Transient::Service {
   }
 
   absl::Status Pixel(const v1::GetPixelRequest& r, v1::Pixel* out) {
+    if (const ScheduleOptions schedule = pipeline_->schedule().options();
+        schedule.DeliversDepth()) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "GetPixel: ",
+          schedule.MissingHarmonicsText("the per-pixel density plot of the moment reconstruction"),
+          "; stream DEPTH and RANGE instead"));
+    }
     std::shared_ptr<const FrameProducts> latest = pipeline_->Latest();
     if (latest == nullptr) {
       return absl::UnavailableError(absl::StrCat("no frame reconstructed yet from ",

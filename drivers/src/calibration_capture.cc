@@ -22,6 +22,10 @@ absl::StatusOr<CalibrationCapture> CaptureCalibration(CaptureSource& source, int
   }
   const AcquisitionSchedule& schedule = source.schedule();
   const ImageGeometry geometry = source.camera().geometry;
+  if (schedule.options().DeliversDepth()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        source.uri(), ": ", schedule.options().MissingHarmonicsText("a calibration")));
+  }
 
   // The cycles become takes of one long cycle, so that the demodulator's averaging with
   // outlier rejection (thesis §8.5) treats the whole calibration at once.

@@ -209,6 +209,24 @@ TEST(CaptureWriter, RefusesBadOptionsAndExistingFiles) {
               StatusIs(absl::StatusCode::kNotFound, HasSubstr("no such directory")));
 }
 
+TEST(CaptureWriter, RefusesADepthCamerasScheduleCreatingNothing) {
+  ScratchDirectory scratch;
+  ScheduleOptions depth;
+  depth.sampling = SamplingScheme::kDepth;
+  depth.max_depth_m = 8.0;
+  depth.depth_amplitude = true;
+  absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(depth);
+  ASSERT_THAT(schedule.status(), IsOk());
+  EXPECT_THAT(
+      CaptureWriter::Create(scratch.File("depth.h5"), TestCamera(), *schedule, TestOptions())
+          .status(),
+      StatusIs(absl::StatusCode::kFailedPrecondition,
+               HasSubstr("depth.h5: the source delivers depth, not modulated captures: a capture "
+                         "file needs modulated captures (depth camera (Z up to 8 m), with "
+                         "amplitude: 2 raw frames)")));
+  EXPECT_FALSE(std::filesystem::exists(scratch.File("depth.h5")));
+}
+
 // Writes a capture, then lets `edit` change the file with the HDF5 C API.
 template <typename Edit>
 std::string EditedCapture(const ScratchDirectory& scratch, Edit edit) {
@@ -252,6 +270,11 @@ TEST(CaptureReader, RefusesBrokenLayoutsByName) {
        "edited.h5: /frames/timestamp_s: expected float32 or float64, found int64"},
       {"cycle rank", [](hid_t f) { ReplaceDataset(f, "/frames/cycle", H5T_STD_I64LE, {12, 1}); },
        "edited.h5: /frames/cycle: expected 1 dimension [frames], found 2"},
+      {"depth schedule", [](hid_t f) {
+         h5::Id g = h5::Group(H5Gopen2(f, "/schedule", H5P_DEFAULT));
+         ASSERT_TRUE(h5::WriteStringAttribute(g.get(), "sampling", "depth").ok()); },
+       "attribute sampling: sampling scheme 'depth' is a depth camera's, which only its source "
+       "declares"},
       {"missing camera", [](hid_t f) { H5Ldelete(f, "/camera", H5P_DEFAULT); },
        "edited.h5: /camera: missing group"},
       {"camera width", [](hid_t f) {

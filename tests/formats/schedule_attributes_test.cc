@@ -137,6 +137,9 @@ TEST_F(ScheduleAttributes, EachBadAttributeIsNamed) {
       {"harmonics",
        [](hid_t g) { ASSERT_THAT(h5::WriteStringAttribute(g, "harmonics", "2,a"), IsOk()); },
        "s.h5: /: attribute harmonics: harmonic list '2,a': 'a' is not an integer"},
+      {"depth camera",
+       [](hid_t g) { ASSERT_THAT(h5::WriteStringAttribute(g, "sampling", "depth"), IsOk()); },
+       "s.h5: /: attribute sampling: sampling scheme 'depth' is a depth camera's"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
@@ -145,6 +148,17 @@ TEST_F(ScheduleAttributes, EachBadAttributeIsNamed) {
     EXPECT_THAT(ReadScheduleAttributes(root(), "s.h5: /", TakesAttribute::kRequired).status(),
                 StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr(c.message)));
   }
+}
+
+TEST_F(ScheduleAttributes, ADepthCamerasScheduleIsNeverWritten) {
+  ScheduleOptions depth;
+  depth.sampling = SamplingScheme::kDepth;
+  depth.max_depth_m = 8.0;
+  ASSERT_THAT(depth.Validate(), IsOk());
+  EXPECT_THAT(WriteScheduleAttributes(root(), depth),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("the source delivers depth, not modulated captures")));
+  EXPECT_EQ(H5Aexists(root(), "sampling"), 0) << "nothing written";
 }
 
 }  // namespace

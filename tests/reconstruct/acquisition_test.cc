@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <set>
 
@@ -328,6 +329,112 @@ TEST(AcquisitionSchedule, DescribeSummarisesTheSchedule) {
   EXPECT_EQ(DescribeExposure(e),
             "harmonic 2 (46 MHz), phase shift 0.0000 rad, exposure 1.92 ms, illumination on, "
             "take 0");
+}
+
+// A depth camera (an OpenNI2 device): Z, then amplitude, per cycle; 8 m at most.
+ScheduleOptions DepthCamera(bool amplitude) {
+  ScheduleOptions options;
+  options.sampling = SamplingScheme::kDepth;
+  options.max_depth_m = 8.0;
+  options.depth_amplitude = amplitude;
+  return options;
+}
+
+TEST(DepthSchedule, HasADepthFrameAndOptionallyAnAmplitudeFrame) {
+  const AcquisitionSchedule depth_only = MakeSchedule(DepthCamera(false));
+  ASSERT_EQ(depth_only.raw_frames_per_frame(), 1);
+  EXPECT_EQ(depth_only.exposures()[0].content, FrameContent::kDepth);
+  const AcquisitionSchedule both = MakeSchedule(DepthCamera(true));
+  ASSERT_EQ(both.raw_frames_per_frame(), 2);
+  EXPECT_EQ(both.exposures_per_take(), 2);
+  EXPECT_EQ(both.exposures()[0].content, FrameContent::kDepth);
+  EXPECT_EQ(both.exposures()[1].content, FrameContent::kAmplitude);
+  for (const ExposureConfig& e : both.exposures()) {
+    EXPECT_EQ(e.harmonic, 0);
+    EXPECT_EQ(e.frequency_hz, 0.0);
+    EXPECT_EQ(e.take, 0);
+  }
+  // Nothing to reconstruct moments from.
+  EXPECT_FALSE(both.options().HasAllHarmonics());
+  EXPECT_TRUE(both.options().DeliversDepth());
+  EXPECT_TRUE(both.options().MeasuredHarmonics().empty());
+  EXPECT_EQ(both.options().UnambiguousRangeM(), 8.0);
+  EXPECT_EQ(both.options().MissingHarmonicsText("SLICES"),
+            "the source delivers depth, not modulated captures: SLICES needs modulated captures");
+}
+
+TEST(DepthSchedule, IndexOfTellsDepthFromAmplitudeAndFromModulatedExposures) {
+  const AcquisitionSchedule schedule = MakeSchedule(DepthCamera(true));
+  ExposureConfig frame = schedule.exposures()[1];
+  frame.cycle = 12;
+  frame.sequence = 25;
+  EXPECT_THAT(schedule.IndexOf(frame), IsOkAndHolds(1));
+  frame.content = FrameContent::kDepth;
+  EXPECT_THAT(schedule.IndexOf(frame), IsOkAndHolds(0));
+  frame.content = FrameContent::kModulated;  // an unmodulated exposure of the same metadata
+  EXPECT_THAT(schedule.IndexOf(frame).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("not an exposure")));
+  // And a modulated schedule's unmodulated exposure is not a depth frame.
+  ScheduleOptions pair;
+  pair.sampling = SamplingScheme::kFourBucket;
+  const AcquisitionSchedule modulated = MakeSchedule(pair);
+  ExposureConfig on = modulated.exposures()[0];
+  EXPECT_THAT(modulated.IndexOf(on), IsOkAndHolds(0));
+  on.content = FrameContent::kDepth;
+  EXPECT_THAT(modulated.IndexOf(on).status(), StatusIs(absl::StatusCode::kInvalidArgument,
+                                                        HasSubstr("depth (Z, m), take 0")));
+}
+
+TEST(DepthSchedule, ValidateNamesTheMaxDepthTakesAndHarmonics) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (double bad : {0.0, -1.0, nan, inf}) {
+    ScheduleOptions options = DepthCamera(true);
+    options.max_depth_m = bad;
+    EXPECT_THAT(options.Validate(),
+                StatusIs(absl::StatusCode::kInvalidArgument,
+                         HasSubstr("Violated constraint: finite and > 0 with sampling = depth")))
+        << bad;
+    EXPECT_FALSE(AcquisitionSchedule::Create(options).ok());
+  }
+  ScheduleOptions takes = DepthCamera(false);
+  takes.takes = 2;
+  EXPECT_THAT(takes.Validate(), StatusIs(absl::StatusCode::kInvalidArgument,
+                                         HasSubstr("takes = 2. Violated constraint: takes = 1")));
+  ScheduleOptions harmonics = DepthCamera(false);
+  harmonics.harmonics = {1, 2};
+  harmonics.order = 2;
+  EXPECT_THAT(harmonics.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("harmonics = 1,2")));
+  // The depth fields belong to depth schedules only.
+  ScheduleOptions modulated;
+  modulated.max_depth_m = 8.0;
+  EXPECT_THAT(modulated.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument,
+                       HasSubstr("max_depth_m = 8. Violated constraint: 0 unless sampling = depth")));
+  modulated.max_depth_m = 0.0;
+  modulated.depth_amplitude = true;
+  EXPECT_THAT(modulated.Validate(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("depth_amplitude = true")));
+  EXPECT_THAT(DepthCamera(true).Validate(), IsOk());
+}
+
+TEST(DepthSchedule, IsDescribedAndNamedButNeverParsedFromText) {
+  EXPECT_EQ(MakeSchedule(DepthCamera(true)).Describe(),
+            "depth camera (Z up to 8 m), with amplitude: 2 raw frames");
+  EXPECT_EQ(MakeSchedule(DepthCamera(false)).Describe(), "depth camera (Z up to 8 m): 1 raw frame");
+  EXPECT_EQ(SamplingSchemeName(SamplingScheme::kDepth), "depth");
+  EXPECT_EQ(FrameContentName(FrameContent::kAmplitude), "amplitude");
+  // A URI key or a file attribute never makes a depth schedule.
+  EXPECT_THAT(ParseSamplingScheme("depth").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("only its source declares")));
+  EXPECT_EQ(DescribeExposure(MakeSchedule(DepthCamera(true)).exposures()[1]), "amplitude, take 0");
+}
+
+TEST(DepthSchedule, ModulatedSchedulesKeepTheirUnambiguousRange) {
+  ScheduleOptions options;  // 23 MHz
+  EXPECT_DOUBLE_EQ(options.UnambiguousRangeM(), 299792458.0 / (2.0 * 23e6));
+  EXPECT_EQ(options.MissingHarmonicsText("SLICES"), "");
 }
 
 }  // namespace

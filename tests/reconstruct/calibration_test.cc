@@ -213,6 +213,14 @@ TEST(Calibration, AHarmonicSetIsReferencedToItsLowestHarmonic) {
                        HasSubstr("calibration harmonics 2, 10, 15, capture harmonics 2, 11, 15")));
   other.harmonics = {15, 2, 10};  // the same set in another capture order
   EXPECT_THAT(CheckCalibrationMatches(*table, other, geometry), IsOk());
+  // A depth camera has no moments to correct.
+  ScheduleOptions depth;
+  depth.sampling = SamplingScheme::kDepth;
+  depth.max_depth_m = 5.0;
+  EXPECT_THAT(CheckCalibrationMatches(*table, depth, geometry),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("the source delivers depth, not modulated captures: a "
+                                 "calibration table")));
 }
 
 TEST(Calibration, UnusablePixelsGetNaNFactorsAndInvalidateMoments) {

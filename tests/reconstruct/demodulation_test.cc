@@ -243,6 +243,18 @@ TEST(Demodulator, NStepSamplingAliasesExactlyTheHarmonicsCongruentToPlusMinusOne
   }
 }
 
+TEST(Demodulator, RefusesADepthCamerasSchedule) {
+  ScheduleOptions depth;
+  depth.sampling = SamplingScheme::kDepth;
+  depth.max_depth_m = 5.0;
+  absl::StatusOr<AcquisitionSchedule> schedule = AcquisitionSchedule::Create(depth);
+  ASSERT_THAT(schedule.status(), IsOk());
+  EXPECT_THAT(Demodulator::Create(*schedule, ImageGeometry{4, 3}, {}).status(),
+              StatusIs(absl::StatusCode::kFailedPrecondition,
+                       HasSubstr("the source delivers depth, not modulated captures: "
+                                 "demodulation needs modulated captures")));
+}
+
 TEST(Demodulator, RefusesIncompleteDuplicatedForeignAndMismatchedCycles) {
   const ImageGeometry geometry{4, 3};
   std::mt19937_64 rng(2);

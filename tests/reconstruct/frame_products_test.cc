@@ -132,6 +132,43 @@ TEST(FrameProducts, SlicesAreComputedOncePerPhaseListAndKind) {
   }
 }
 
+TEST(DepthProducts, TheGivenDepthWithItsRangeAndFlagsWhereThereIsNone) {
+  const CameraInfo camera = Camera();
+  const size_t n = static_cast<size_t>(kGeometry.pixel_count());
+  std::vector<float> depth(n), amplitude(n);
+  for (size_t p = 0; p < n; ++p) {
+    depth[p] = 1.0f + 0.25f * static_cast<float>(p);
+    amplitude[p] = 100.0f + static_cast<float>(p);
+  }
+  depth[2] = kNaNf;
+  depth[3] = 0.0f;
+  depth[4] = -2.0f;
+  depth[6] = std::numeric_limits<float>::infinity();
+  const MomentDepthSpec spec{.near_m = 0.0, .far_m = 8.0, .sigma_px = 0.0};
+  const auto products = ComputeDepthProducts(
+      depth, amplitude, camera, ProductNeeds{.amplitude = true, .moment_depth = {spec}}, 9);
+  EXPECT_EQ(products->sequence, 9u);
+  EXPECT_EQ(products->solved, nullptr);
+  EXPECT_EQ(products->amplitude, amplitude);
+  EXPECT_TRUE(products->moment_depth.contains(spec));
+  for (size_t p = 0; p < n; ++p) {
+    const bool none = p == 2 || p == 3 || p == 4 || p == 6;
+    EXPECT_EQ(products->flags[p], none ? kFlagNoReturn : 0) << p;
+    if (none) {
+      EXPECT_TRUE(std::isnan(products->depth_m[p])) << p;
+      EXPECT_TRUE(std::isnan(products->range_m[p])) << p;
+      continue;
+    }
+    EXPECT_EQ(products->depth_m[p], depth[p]) << p;
+    const double z = PixelRay(camera.intrinsics, static_cast<double>(p % kGeometry.width),
+                              static_cast<double>(p / kGeometry.width)).z;
+    EXPECT_FLOAT_EQ(products->range_m[p], static_cast<float>(depth[p] / z)) << p;
+  }
+  // No amplitude frame: none, whatever is needed.
+  EXPECT_TRUE(ComputeDepthProducts(depth, {}, camera, ProductNeeds{.amplitude = true})
+                  ->amplitude.empty());
+}
+
 TEST(MergeNoReturn, AnUnexplainedNanIsANoReturnAndInvalidPixelsKeepTheirReason) {
   const std::vector<uint8_t> solved = {0, kFlagInvalidInput, 0, kFlagBiased};
   const std::vector<uint8_t> range_flags = {0, kFlagInvalidInput, kFlagNoReturn, kFlagBiased};

@@ -25,7 +25,8 @@ struct CalibrationCaptureHooks {
 // Starts `source`, averages `takes` complete capture cycles of it (each cycle's own takes
 // included) with the demodulator's outlier rejection, stops it, and estimates the per-pixel
 // factors. Incomplete cycles are skipped. InvalidArgument when takes is outside 1..256 or the
-// source ends (OutOfRange) before enough cycles; the source's own errors otherwise.
+// source ends (OutOfRange) before enough cycles; FailedPrecondition for a depth camera
+// (SamplingScheme::kDepth), which has no moments to calibrate; the source's own errors otherwise.
 absl::StatusOr<CalibrationCapture> CaptureCalibration(CaptureSource& source, int takes,
                                                       const CalibrationCaptureHooks& hooks = {});
 

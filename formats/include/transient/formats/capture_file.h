@@ -93,7 +93,9 @@ class CaptureWriter {
   // Creates `path` (AlreadyExists if it exists: a recording never overwrites one) with the
   // camera, the schedule and the empty frame datasets, and closes it again: the file is
   // reopened in SWMR mode by the first Append or Flush, and until then SetGroundTruth and
-  // EmbedCalibration add their groups to it. InvalidArgument for bad options or geometry.
+  // EmbedCalibration add their groups to it. InvalidArgument for bad options or geometry;
+  // FailedPrecondition, creating nothing, for a depth camera's schedule (SamplingScheme::kDepth):
+  // the format holds modulated captures.
   [[nodiscard]] static absl::StatusOr<CaptureWriter> Create(const std::string& path,
                                                             const CameraInfo& camera,
                                                             const AcquisitionSchedule& schedule,

@@ -25,7 +25,16 @@ enum class SamplingScheme {
                           // odd harmonics stay (prop. 8.3 needs more)
   kArccos,                // n_phi equal sub-exposures at arccos(1 - (2k+1)/n_phi) (eq. 8.7)
   kHarmonicCancellation,  // n_phi sub-exposures at k*pi/(n_phi+1), time ~ sin((k+1)*pi/(n_phi+1))
-};                        // [Payne et al. 2010]
+                          // [Payne et al. 2010]
+  // Not a sampling of modulated exposures: the camera computes depth itself (an OpenNI2 device,
+  // an .oni file) and delivers, per capture cycle, one frame of Z in metres and optionally one
+  // of amplitude (ScheduleOptions::depth_amplitude, FrameContent). Nothing is demodulated: the
+  // daemon serves RANGE, DEPTH, AMPLITUDE, FLAGS and MOMENT_DEPTH of that depth and refuses the
+  // moment reconstruction (HasAllHarmonics() is false). Only a source declares it, in code: no
+  // URI key or file attribute names it (ParseSamplingScheme refuses "depth"), and the capture
+  // and calibration formats refuse such a schedule.
+  kDepth,
+};
 
 // How the zeroth moment c_0 is obtained (thesis §8.3.3).
 enum class ZerothScheme {
@@ -34,10 +43,12 @@ enum class ZerothScheme {
   kEstimated,          // not measured: estimated from lambda_min (reconstructor.h, kEstimate)
 };
 
-// "four-bucket", "arccos", "harmonic-cancellation"; "pair", "proxy", "estimated".
+// "four-bucket", "arccos", "harmonic-cancellation", "depth"; "pair", "proxy", "estimated".
 absl::string_view SamplingSchemeName(SamplingScheme scheme);
 absl::string_view ZerothSchemeName(ZerothScheme scheme);
-// Inverse of the names above; InvalidArgument listing the accepted names otherwise.
+// Inverse of the names above; InvalidArgument listing the accepted names otherwise. "depth" is
+// refused too (InvalidArgument saying why): a depth schedule comes from its source's code, never
+// from a URI key or a file's attribute.
 absl::StatusOr<SamplingScheme> ParseSamplingScheme(absl::string_view name);
 absl::StatusOr<ZerothScheme> ParseZerothScheme(absl::string_view name);
 
@@ -66,18 +77,35 @@ struct ScheduleOptions {
   double proxy_frequency_hz = 900e3;  // kLowFrequencyProxy only; below f
   double exposure_s = 1.92e-3;        // of each raw frame (thesis §8.5.1)
   int takes = 1;                      // repetitions of all exposures per transient frame, 1..1024
+                                      // (1 with kDepth)
+
+  // sampling = kDepth only (Validate refuses them otherwise). The fields above other than
+  // exposure_s and takes are unused by a depth schedule; `harmonics` must stay empty.
+  // A second frame per cycle, after the depth: amplitude (IR intensity) in sensor units.
+  bool depth_amplitude = false;
+  // The camera's maximum depth, metres: finite and > 0 with kDepth, 0 otherwise. It takes the
+  // place of the unambiguous range (UnambiguousRangeM()).
+  double max_depth_m = 0.0;
 
   // Names the first violated constraint, e.g. "order = 0. Violated constraint: 1 <= order <= 16".
   absl::Status Validate() const;
 
   // The harmonics measured in capture order: `harmonics`, or 1..order.
   std::vector<int> MeasuredHarmonics() const;
-  // Every harmonic 1..order is measured: the moment reconstruction can run.
+  // Every harmonic 1..order is measured: the moment reconstruction can run. False for kDepth,
+  // which measures none.
   bool HasAllHarmonics() const;
+  // sampling == kDepth: the source delivers depth, not modulated captures.
+  bool DeliversDepth() const { return sampling == SamplingScheme::kDepth; }
   // Why the moment reconstruction cannot run on this schedule, for a FailedPrecondition:
   // "the schedule measures harmonics 2, 10, 15 of 8 MHz; <what> needs every harmonic 1..15
-  // (missing 1, 3-9, 11-14)". Empty when HasAllHarmonics().
+  // (missing 1, 3-9, 11-14)", or for kDepth "the source delivers depth, not modulated
+  // captures: <what> needs modulated captures". Empty when HasAllHarmonics().
   std::string MissingHarmonicsText(absl::string_view what) const;
+  // The farthest distance the schedule tells apart, metres: c / (2 f) of a modulated schedule
+  // (physical_constants.h), max_depth_m of a depth camera (GetInfo's unambiguous_range_m, the
+  // default far plane of moment depth maps).
+  double UnambiguousRangeM() const;
 };
 
 // Bucket k's phase shift of N-step sampling, 2*pi*k/N, and the bucket of a phase shift (the
@@ -97,6 +125,15 @@ struct SubExposure {
   double weight = 1.0;
 };
 
+// What the pixels of a raw frame hold. Everything but a depth camera's frames is kModulated.
+enum class FrameContent {
+  kModulated,  // one modulated (or unmodulated) exposure, sensor units
+  kDepth,      // a depth camera's Z in the optical frame, metres; NaN, Inf or <= 0: no depth
+  kAmplitude,  // a depth camera's amplitude (IR intensity), sensor units; NaN: unreadable
+};
+// "modulated", "depth", "amplitude".
+absl::string_view FrameContentName(FrameContent content);
+
 // The metadata an AMCW SDK attaches to one raw frame (one exposure of the sensor).
 struct ExposureConfig {
   int harmonic = 0;            // j of c_j this exposure contributes to; 0 for the zeroth moment
@@ -110,12 +147,18 @@ struct ExposureConfig {
   int64_t cycle = 0;           // index of the transient frame (capture cycle) this belongs to
   uint64_t sequence = 0;       // running number of the raw frame at its source
   double timestamp_s = 0.0;    // start of the exposure, seconds since the source started
+  // What the pixels hold: tells a depth camera's depth and amplitude frames apart (their other
+  // fields are equal: harmonic 0, frequency 0, phase shift 0, the schedule's exposure_s,
+  // illumination on).
+  FrameContent content = FrameContent::kModulated;
 };
 
 // One raw image of the sensor with its exposure. `pixels` is row-major, pixel_count() values in
 // sensor units: ADC counts (DN) for a real or quantized simulated sensor, linear units for
 // float simulated data. NaN marks a pixel the source could not read; a value at or above
 // `saturation_level` is saturated (the demodulator flags such pixels, never uses them).
+// A depth camera's frames (config.content) hold Z in metres (NaN, Inf or <= 0: no depth) or
+// amplitude in sensor units; saturation_level is not used for them.
 struct RawFrame {
   ExposureConfig config;
   ImageGeometry geometry;
@@ -126,7 +169,10 @@ struct RawFrame {
 // The exposures of one capture cycle, in capture order: for each take, the zeroth-moment
 // exposures (if measured), then the measured harmonics j (1..m, or `harmonics` in its order),
 // each with buckets 2*pi*k/N, k = 0..N-1 (N = 4: 0, pi/2, pi, 3*pi/2).
-// Every modulated exposure uses the same sub-exposure split.
+// Every modulated exposure uses the same sub-exposure split. A depth schedule (kDepth) has one
+// exposure of content kDepth, then with depth_amplitude one of kAmplitude (harmonic 0,
+// frequency 0, phase shift 0, exposure_s, illumination on, take 0): its source copies
+// exposures()[i] into each frame and stamps cycle, sequence and timestamp.
 class AcquisitionSchedule {
  public:
   // InvalidArgument when `options` fails Validate().
@@ -149,12 +195,13 @@ class AcquisitionSchedule {
   // four-bucket phasor becomes nominal_gain() * c_j. The demodulator divides by it.
   Complex nominal_gain() const { return nominal_gain_; }
 
-  // Position in exposures() of the exposure `config` describes (harmonic, frequency, phase
-  // shift, exposure time, illumination and take must match; cycle, sequence and timestamp are
-  // ignored). InvalidArgument describing the frame when none matches.
+  // Position in exposures() of the exposure `config` describes (content, harmonic, frequency,
+  // phase shift, exposure time, illumination and take must match; cycle, sequence and timestamp
+  // are ignored). InvalidArgument describing the frame when none matches.
   absl::StatusOr<int> IndexOf(const ExposureConfig& config) const;
 
-  // One line: "f = 23 MHz, m = 3, arccos (n_phi = 8), zeroth: pair, 1 take: 14 raw frames".
+  // One line: "f = 23 MHz, m = 3, arccos (n_phi = 8), zeroth: pair, 1 take: 14 raw frames";
+  // "depth camera (Z up to 10 m), with amplitude: 2 raw frames".
   std::string Describe() const;
 
  private:
@@ -164,7 +211,8 @@ class AcquisitionSchedule {
   Complex nominal_gain_{1.0, 0.0};
 };
 
-// "harmonic 2 (46 MHz), phase shift 1.5708 rad, exposure 1.92 ms, illumination on, take 0".
+// "harmonic 2 (46 MHz), phase shift 1.5708 rad, exposure 1.92 ms, illumination on, take 0";
+// a depth camera's "depth (Z, m), take 0" / "amplitude, take 0".
 std::string DescribeExposure(const ExposureConfig& config);
 // A raw frame in messages: "frame 17 (cycle 1, harmonic 2 (46 MHz), ...)".
 std::string DescribeFrame(const ExposureConfig& config);

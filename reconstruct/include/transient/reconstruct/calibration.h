@@ -37,7 +37,9 @@ struct CalibrationTable {
 // Refuses a calibration that does not fit moments measured with `schedule` on `geometry`:
 // FailedPrecondition naming both values, e.g. "calibration is for 163x120 pixels, the capture
 // has 320x240", "calibration f = 23 MHz, capture f = 20 MHz", "calibration m = 3, capture m = 4",
-// or a different sampling, number of phase steps, harmonic set or zeroth-moment scheme.
+// or a different sampling, number of phase steps, harmonic set or zeroth-moment scheme. A depth
+// camera's schedule (SamplingScheme::kDepth) fits no calibration: "the source delivers depth,
+// not modulated captures: ...".
 absl::Status CheckCalibrationMatches(const CalibrationTable& calibration,
                                      const ScheduleOptions& schedule, ImageGeometry geometry);
 

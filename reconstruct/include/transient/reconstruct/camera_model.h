@@ -43,6 +43,13 @@ void DepthFromRange(ImageGeometry geometry, const PinholeIntrinsics& intrinsics,
 std::vector<float> DepthFromRange(ImageGeometry geometry, const PinholeIntrinsics& intrinsics,
                                   std::span<const float> range_m);
 
+// The inverse, range of every pixel from its depth: r = Z / PixelRay(x, y).z = Z * |((x - cx)/fx,
+// (y - cy)/fy, 1)|, along the same undistorted pinhole ray (lens distortion not removed, as
+// above). A depth that is not finite and > 0 (a depth camera's "no depth": NaN, Inf, 0 or
+// negative) gives NaN range. Same sizes and aliasing as DepthFromRange.
+void RangeFromDepth(ImageGeometry geometry, const PinholeIntrinsics& intrinsics,
+                    std::span<const float> depth_m, std::span<float> range_m);
+
 // A sensor as a source describes it: its image, pinhole and lens, name and frame period.
 struct CameraInfo {
   ImageGeometry geometry;

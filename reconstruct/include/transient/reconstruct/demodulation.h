@@ -82,7 +82,8 @@ struct DemodulationReport {
 // NaN in every plane.
 class Demodulator {
  public:
-  // InvalidArgument when the geometry is empty or `options` fails Validate().
+  // InvalidArgument when the geometry is empty or `options` fails Validate(); FailedPrecondition
+  // for a depth camera's schedule (SamplingScheme::kDepth), which has nothing to demodulate.
   [[nodiscard]] static absl::StatusOr<Demodulator> Create(const AcquisitionSchedule& schedule,
                                                           ImageGeometry geometry,
                                                           const DemodulationOptions& options);

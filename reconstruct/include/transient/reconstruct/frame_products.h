@@ -73,7 +73,7 @@ struct FrameProducts {
   int order = 0;
   double base_frequency_hz = 0.0;
   // The moment state, per-pixel plots; always, except for a schedule without every harmonic
-  // 1..m (ComputeUnwrappedProducts), which has none.
+  // 1..m (ComputeUnwrappedProducts) and a depth camera's (ComputeDepthProducts), which have none.
   std::shared_ptr<const SolvedImage> solved;
   std::shared_ptr<const PisarenkoImage> pisarenko;  // when anything above needed it
   // PixelFlag bits: the solver's, and kFlagNoReturn where range_m is NaN on a valid pixel
@@ -110,6 +110,20 @@ std::shared_ptr<const FrameProducts> ComputeUnwrappedProducts(const MomentImage&
                                                               const UnwrapOptions& unwrap,
                                                               const ProductNeeds& needs,
                                                               uint64_t sequence = 0);
+
+// The products of a depth camera's frame (SamplingScheme::kDepth): nothing demodulated or
+// solved. depth_m is `depth_m` as given where it is finite and > 0, NaN elsewhere, with
+// kFlagNoReturn in flags (the camera measured no depth there); range_m is RangeFromDepth of it
+// (camera_model.h: the pinhole ray, lens distortion not removed); amplitude is `amplitude`
+// (empty: the source delivers none, and the caller refused AMPLITUDE); moment depth maps are of
+// the depth (specs from_returns are the caller's to refuse; left out here). order and
+// base_frequency_hz are 0, `solved` is null. Range, depth and flags are always computed (they
+// cost one pass); `depth_m` and a non-empty `amplitude` hold pixel_count() values (asserted).
+std::shared_ptr<const FrameProducts> ComputeDepthProducts(std::span<const float> depth_m,
+                                                          std::span<const float> amplitude,
+                                                          const CameraInfo& camera,
+                                                          const ProductNeeds& needs,
+                                                          uint64_t sequence = 0);
 
 // Combines the solver's flags with a range estimate's kFlagNoReturn bit, so that a range plane
 // is NaN exactly where the flags say why: the range functions flag every NaN they leave on a

@@ -98,12 +98,15 @@ class Pipeline {
 
   // Measures a calibration from `source_uri` ("" = the calibration scene of a simulated
   // camera), reporting progress; applies it unless keep_current. Runs on the caller's thread;
-  // Cancelled once `cancelled` returns true or the pipeline stops.
+  // Cancelled once `cancelled` returns true or the pipeline stops. FailedPrecondition for a
+  // depth camera (SamplingScheme::kDepth), which has no moments to calibrate.
   absl::StatusOr<CalibrationOutcome> Calibrate(const std::string& source_uri, int takes,
                                                const std::string& output_path, bool keep_current,
                                                const std::function<void(int, int)>& on_take,
                                                const std::function<bool()>& cancelled);
 
+  // Records the source's raw frames into a capture file (recorder.h). FailedPrecondition for a
+  // depth camera (SamplingScheme::kDepth): the capture format holds modulated captures.
   absl::StatusOr<RecordingStatus> StartRecording(const std::string& path, uint64_t max_frames,
                                                  int deflate_level);
   absl::StatusOr<RecordingStatus> StopRecording();

@@ -71,6 +71,9 @@ struct ProductSpec {
   EncodingRule encodings;
   // Which schedules can serve it: the moment reconstruction's products need every harmonic
   // 1..m (ScheduleOptions::HasAllHarmonics), phase unwrapping's need a schedule without.
+  // kAny is also what a depth camera (SamplingScheme::kDepth) serves, from the depth it
+  // delivers: RANGE, DEPTH, FLAGS, MOMENT_DEPTH, and AMPLITUDE when it delivers an amplitude
+  // frame (the daemon checks that, and MOMENT_DEPTH of returns, beside this table).
   enum class Needs { kAny, kAllHarmonics, kHarmonicSet };
   Needs needs = Needs::kAny;
 };
