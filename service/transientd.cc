@@ -40,7 +40,7 @@ void Log(const std::string& line) {
 
 // The calibration to start with: --calibration FILE; else the one the source carries (a
 // recording embeds it); else, when the source has a calibration scene (a simulator), measured
-// now from it (thesis §8.3.2); else none.
+// now from it (thesis §8.3.2); else none. A depth camera (an OpenNI2 device) has none.
 absl::Status ChooseCalibration(const std::string& uri, const std::string& file,
                                bool uncalibrated, PipelineOptions* options) {
   if (uncalibrated) return absl::OkStatus();
@@ -53,6 +53,7 @@ absl::Status ChooseCalibration(const std::string& uri, const std::string& file,
   }
   absl::StatusOr<const SourceScheme*> scheme = FindSourceScheme(uri);
   if (!scheme.ok()) return absl::OkStatus();  // Pipeline::Create reports it
+  if ((*scheme)->capabilities.delivers_depth) return absl::OkStatus();  // nothing to calibrate
   if ((*scheme)->capabilities.embedded_calibration) {
     absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSource(uri);
     if (!source.ok()) return source.status();

@@ -4,6 +4,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "kinect2/usb_kinect2.h"
+#include "openni2/openni2_source.h"
 #include "v4l2/v4l2_devices.h"
 
 namespace transient {
@@ -21,6 +22,7 @@ std::vector<CaptureDevice> ListCaptureDevices(const std::string& dev_dir) {
     if (!k.problem.empty()) device.details.push_back(k.problem);
     devices.push_back(device);
   }
+  for (CaptureDevice& device : openni2::ListOpenNi2Devices()) devices.push_back(std::move(device));
   return devices;
 }
 
@@ -28,7 +30,7 @@ std::string DescribeCaptureDevices(const std::vector<CaptureDevice>& devices,
                                    const std::string& dev_dir) {
   if (devices.empty()) {
     return absl::StrCat("no capture devices found (looked for V4L2 nodes ", dev_dir,
-                        "/videoN and Kinect v2 cameras on USB)\n");
+                        "/videoN, Kinect v2 cameras on USB and OpenNI2 devices)\n");
   }
   std::string text;
   for (const CaptureDevice& device : devices) {

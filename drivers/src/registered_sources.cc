@@ -13,6 +13,7 @@ extern const SourceScheme kSimulatorScheme;  // src/sim/simulator_scheme.cc
 extern const SourceScheme kReplayScheme;     // src/replay/replay_scheme.cc
 extern const SourceScheme kV4l2Scheme;       // src/v4l2/v4l2_source.cc
 extern const SourceScheme kUsbScheme;        // src/kinect2/kinect2_source.cc
+extern const SourceScheme kOpenNi2Scheme;    // src/openni2/openni2_source.cc
 }  // namespace internal
 
 namespace {
@@ -22,6 +23,7 @@ const SourceScheme* const kSchemes[] = {
     &internal::kReplayScheme,
     &internal::kV4l2Scheme,
     &internal::kUsbScheme,
+    &internal::kOpenNi2Scheme,
 };
 
 std::string SchemeNames() {
@@ -87,6 +89,7 @@ std::string DescribeSourceSchemes() {
     if (c.embedded_calibration) can.push_back("embedded calibration");
     if (c.calibration_scene) can.push_back("calibration scene");
     if (c.adjustable_takes) can.push_back("takes");
+    if (c.delivers_depth) can.push_back("depth only");
     absl::StrAppend(&text, scheme->syntax, "\n  ", scheme->description, "\n  capabilities: ",
                     can.empty() ? "none" : absl::StrJoin(can, ", "), "\n");
     for (const SourceKey& key : scheme->keys) {

@@ -1,6 +1,7 @@
 // The capture devices this machine shows, for `transient devices`: what a user can put in a
 // source URI. V4L2 nodes (/dev/videoN with their formats and whether the proposed ToF
-// controls are there) and Kinect v2 cameras on USB (serial, speed); OpenNI2 adds its here.
+// controls are there), Kinect v2 cameras on USB (serial, speed) and the devices OpenNI2
+// enumerates (openni2:).
 #pragma once
 
 #include <string>
@@ -15,8 +16,8 @@ struct CaptureDevice {
   std::vector<std::string> details;  // one line each: driver, formats, controls, or what is wrong
 };
 
-// Every device found, in order (V4L2: /dev/videoN by N; then the Kinect v2 cameras). `dev_dir`
-// is where V4L2 device nodes are.
+// Every device found, in order (V4L2: /dev/videoN by N; then the Kinect v2 cameras, then
+// OpenNI2's). `dev_dir` is where V4L2 device nodes are.
 std::vector<CaptureDevice> ListCaptureDevices(const std::string& dev_dir = "/dev");
 
 // The list as text; with no devices, one line saying so and where it looked.

@@ -31,6 +31,7 @@ struct SchemeCapabilities {
   bool embedded_calibration = false;  // an opened source may carry its own calibration
   bool calibration_scene = false;     // CalibrationSourceFor names the same camera on a Dirac
   bool adjustable_takes = false;      // SourceUriWithTakes can change the schedule's takes
+  bool delivers_depth = false;        // a depth camera (SamplingScheme::kDepth): no calibration
 };
 
 struct SourceScheme {
