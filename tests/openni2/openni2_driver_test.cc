@@ -163,7 +163,7 @@ class OpenNi {
     setenv("TRANSIENT_OPENNI2_ADDRESS", address.c_str(), 1);
     status_ = openni::OpenNI::initialize();
   }
-  ~OpenNi() { openni::OpenNI::shutdown(); }
+  // No OpenNI::shutdown(): see openni_only_reader.cc.
   bool ok() const { return status_ == openni::STATUS_OK; }
   static std::vector<std::string> DeviceUris() {
     openni::Array<openni::DeviceInfo> devices;

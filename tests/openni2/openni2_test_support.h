@@ -63,15 +63,15 @@ class GrpcFrames {
     if (!daemon.ok()) return;
     info_ = daemon->GetInfo().value_or(v1::Info{});
     // Depth in the daemon's own millimetres (UINT16_MM is for lengths only), amplitude as float.
-    v1::StreamRequest depth;
-    depth.add_products(v1::DEPTH);
-    depth.set_encoding(v1::UINT16_MM);
-    depth.set_queue_frames(64);
-    v1::StreamRequest amplitude;
-    amplitude.add_products(v1::AMPLITUDE);
-    amplitude.set_queue_frames(64);
-    std::vector<v1::StreamRequest> requests = {depth};
-    if (amplitude_) requests.push_back(amplitude);
+    v1::StreamRequest depth_request;
+    depth_request.add_products(v1::DEPTH);
+    depth_request.set_encoding(v1::UINT16_MM);
+    depth_request.set_queue_frames(64);
+    v1::StreamRequest amplitude_request;
+    amplitude_request.add_products(v1::AMPLITUDE);
+    amplitude_request.set_queue_frames(64);
+    std::vector<v1::StreamRequest> requests = {depth_request};
+    if (amplitude_) requests.push_back(amplitude_request);
     for (const v1::StreamRequest& request : requests) {
       streams_.push_back(daemon->StreamFrames(request));
       threads_.emplace_back([this, stream = streams_.back().get()] { Receive(stream); });
