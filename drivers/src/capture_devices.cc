@@ -9,8 +9,8 @@
 
 namespace transient {
 
-std::vector<CaptureDevice> ListCaptureDevices(const std::string& dev_dir) {
-  std::vector<CaptureDevice> devices = v4l2::ListV4l2Devices(dev_dir);
+std::vector<CaptureDevice> ListCaptureDevices(const DeviceListOptions& options) {
+  std::vector<CaptureDevice> devices = v4l2::ListV4l2Devices(options.dev_dir);
   for (const kinect2::Kinect2Listing& k : kinect2::ListKinect2()) {
     CaptureDevice device;
     device.uri = k.serial.empty() ? "usb:kinect2" : absl::StrCat("usb:kinect2?serial=", k.serial);
@@ -22,15 +22,20 @@ std::vector<CaptureDevice> ListCaptureDevices(const std::string& dev_dir) {
     if (!k.problem.empty()) device.details.push_back(k.problem);
     devices.push_back(device);
   }
-  for (CaptureDevice& device : openni2::ListOpenNi2Devices()) devices.push_back(std::move(device));
+  if (options.openni2) {
+    for (CaptureDevice& device : openni2::ListOpenNi2Devices()) {
+      devices.push_back(std::move(device));
+    }
+  }
   return devices;
 }
 
 std::string DescribeCaptureDevices(const std::vector<CaptureDevice>& devices,
-                                   const std::string& dev_dir) {
+                                   const DeviceListOptions& options) {
   if (devices.empty()) {
-    return absl::StrCat("no capture devices found (looked for V4L2 nodes ", dev_dir,
-                        "/videoN, Kinect v2 cameras on USB and OpenNI2 devices)\n");
+    return absl::StrCat("no capture devices found (looked for V4L2 nodes ", options.dev_dir,
+                        options.openni2 ? "/videoN, Kinect v2 cameras on USB and OpenNI2 devices)\n"
+                                        : "/videoN and Kinect v2 cameras on USB)\n");
   }
   std::string text;
   for (const CaptureDevice& device : devices) {

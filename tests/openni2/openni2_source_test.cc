@@ -19,6 +19,7 @@
 #include "tests/support/subprocess.h"
 #include "tests/support/wait.h"
 #include "transient/client/client.h"
+#include "transient/drivers/capture_devices.h"
 #include "transient/drivers/capture_source.h"
 #include "transient/openni2/oni_frames.h"
 
@@ -160,6 +161,26 @@ TEST(OpenNi2Source, BadUrisAndFilesAreRefusedWithTheReason) {
     const absl::Status next = (*source)->Next(absl::Seconds(1), &frame);
     EXPECT_FALSE(next.ok()) << "a frame from a file cut after its header";
   }
+}
+
+TEST(OpenNi2Source, DeviceListsAskOpenNi2ButNeverOfferTransientdsOwnDevice) {
+  ScratchDirectory scratch;
+  Daemon daemon(scratch);
+  ASSERT_GT(daemon.port(), 0);
+  // The driver would announce this daemon to any other program (openni2_driver_test.cc).
+  setenv("TRANSIENT_OPENNI2_ADDRESS", daemon.address().c_str(), 1);
+  const DeviceListOptions options{.dev_dir = scratch.path().string()};
+  const std::vector<CaptureDevice> devices = ListCaptureDevices(options);
+  for (const CaptureDevice& device : devices) {
+    EXPECT_THAT(device.uri, ::testing::Not(HasSubstr("transient://")));
+  }
+  EXPECT_THAT(DescribeCaptureDevices(devices, options),
+              HasSubstr("Kinect v2 cameras on USB and OpenNI2 devices"));
+  // The program, as a user runs it.
+  const testing::ProcessResult listed = testing::RunProcess({TRANSIENT_BINARY, "devices"});
+  EXPECT_EQ(listed.exit_code, 0) << listed.err;
+  EXPECT_THAT(listed.out, ::testing::Not(HasSubstr("transient://")));
+  EXPECT_THAT(listed.out, HasSubstr("OpenNI2"));
 }
 
 }  // namespace

@@ -348,7 +348,8 @@ TEST_F(Kinect2SourceTest, AUsb2PortAndAWrongSerialAreRefusedSayingWhy) {
               StatusIs(absl::StatusCode::kNotFound,
                        HasSubstr("no Kinect v2 with serial 123; found: serial 501234543042 at "
                                  "bus 001 device 002")));
-  const std::vector<CaptureDevice> devices = ListCaptureDevices("/nonexistent");
+  const std::vector<CaptureDevice> devices =
+      ListCaptureDevices({.dev_dir = "/nonexistent", .openni2 = false});
   ASSERT_EQ(devices.size(), 1u);
   EXPECT_EQ(devices[0].uri, "usb:kinect2?serial=501234543042");
   EXPECT_FALSE(devices[0].usable);

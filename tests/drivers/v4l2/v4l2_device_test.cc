@@ -33,6 +33,9 @@ using ::transient::testing::StatusIs;
 using testing::EmulatedNode;
 using testing::EmulatedTofSensor;
 
+// The emulated nodes only: OpenNI2's USB drivers would look at umockdev's emulated system too.
+const DeviceListOptions kWithoutOpenNi2{.openni2 = false};
+
 EmulatedNode Mlx75027() {
   EmulatedNode node;
   node.formats = {{kFourccY12P, "12-bit Greyscale (MIPI Packed)"}, {kFourccY12, "12-bit Greyscale"}};
@@ -173,13 +176,13 @@ TEST_F(V4l2DeviceTest, DevicesListsTheNodeWithItsFormatsAndToFControls) {
   other.formats = {{v4l2::Fourcc('Y', 'U', 'Y', 'V'), "YUYV 4:2:2"}};
   other.controls = {};
   sensor_.AddNode(other);
-  const std::vector<CaptureDevice> devices = ListCaptureDevices();
+  const std::vector<CaptureDevice> devices = ListCaptureDevices(kWithoutOpenNi2);
   ASSERT_EQ(devices.size(), 2u);
   EXPECT_EQ(devices[0].uri, "v4l2:/dev/video0");
   EXPECT_EQ(devices[0].name, "MLX75027 ToF");
   EXPECT_TRUE(devices[0].usable);
   EXPECT_FALSE(devices[1].usable);
-  const std::string text = DescribeCaptureDevices(devices);
+  const std::string text = DescribeCaptureDevices(devices, kWithoutOpenNi2);
   EXPECT_THAT(text, AllOf(HasSubstr("v4l2:/dev/video0  MLX75027 ToF\n"),
                           HasSubstr("raw formats we read: Y12P, Y12"),
                           HasSubstr("ToF control 0x00a60901 \"TOF Frequency Modulation\": "
@@ -194,7 +197,7 @@ TEST_F(V4l2DeviceTest, DevicesListsTheNodeWithItsFormatsAndToFControls) {
 TEST_F(V4l2DeviceTest, TheTransientProgramListsTheEmulatedNode) {
   sensor_.AddNode(Mlx75027());
   const ::transient::testing::ProcessResult result =
-      ::transient::testing::RunProcess({TRANSIENT_BINARY, "devices"});
+      ::transient::testing::RunProcess({TRANSIENT_BINARY, "devices", "--no-openni2"});
   EXPECT_EQ(result.exit_code, 0) << result.err;
   EXPECT_THAT(result.out, AllOf(HasSubstr("v4l2:/dev/video0  MLX75027 ToF\n"),
                                 HasSubstr("raw formats we read: Y12P, Y12"),
@@ -209,7 +212,7 @@ TEST_F(V4l2DeviceTest, NodesThatAreNotCaptureDevicesSayWhy) {
   broken.name = "video2";
   broken.querycap_errno = ENOTTY;
   sensor_.AddNode(broken);
-  const std::vector<CaptureDevice> devices = ListCaptureDevices();
+  const std::vector<CaptureDevice> devices = ListCaptureDevices(kWithoutOpenNi2);
   ASSERT_EQ(devices.size(), 2u);
   EXPECT_FALSE(devices[0].usable);
   EXPECT_THAT(devices[0].details, ::testing::Contains(HasSubstr("not a streaming video capture")));
@@ -226,9 +229,9 @@ TEST_F(V4l2DeviceTest, NodesThatAreNotCaptureDevicesSayWhy) {
 TEST_F(V4l2DeviceTest, MissingNodesAreNotFoundAndAnEmptyListSaysSo) {
   EXPECT_THAT(V4l2Device::Open("/dev/video7").status(),
               StatusIs(absl::StatusCode::kNotFound, HasSubstr("/dev/video7")));
-  const std::vector<CaptureDevice> devices = ListCaptureDevices();
+  const std::vector<CaptureDevice> devices = ListCaptureDevices(kWithoutOpenNi2);
   EXPECT_THAT(devices, IsEmpty());
-  EXPECT_EQ(DescribeCaptureDevices(devices),
+  EXPECT_EQ(DescribeCaptureDevices(devices, kWithoutOpenNi2),
             "no capture devices found (looked for V4L2 nodes /dev/videoN and Kinect v2 "
             "cameras on USB)\n");
 }

@@ -16,12 +16,21 @@ struct CaptureDevice {
   std::vector<std::string> details;  // one line each: driver, formats, controls, or what is wrong
 };
 
+// Where to look.
+struct DeviceListOptions {
+  std::string dev_dir = "/dev";  // where V4L2 device nodes are
+  // Also the devices OpenNI2's drivers enumerate. OpenNI2 loads every driver in its folder into
+  // the process, and its USB drivers open and watch USB devices themselves: off where that must
+  // not happen (`transient devices --no-openni2`; tests of emulated devices).
+  bool openni2 = true;
+};
+
 // Every device found, in order (V4L2: /dev/videoN by N; then the Kinect v2 cameras, then
-// OpenNI2's). `dev_dir` is where V4L2 device nodes are.
-std::vector<CaptureDevice> ListCaptureDevices(const std::string& dev_dir = "/dev");
+// OpenNI2's).
+std::vector<CaptureDevice> ListCaptureDevices(const DeviceListOptions& options = {});
 
 // The list as text; with no devices, one line saying so and where it looked.
 std::string DescribeCaptureDevices(const std::vector<CaptureDevice>& devices,
-                                   const std::string& dev_dir = "/dev");
+                                   const DeviceListOptions& options = {});
 
 }  // namespace transient
