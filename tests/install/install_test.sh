@@ -30,10 +30,7 @@ step() {
 }
 
 prefix=$work/prefix
-# The client library and its package; the runtime for the generated protocol's shared library.
-for component in runtime development; do
-  cmake --install "$build_dir" --prefix "$prefix" --component "$component" >>"$work/install.log"
-done
+cmake --install "$build_dir" --prefix "$prefix" --component development >"$work/install.log"
 for header in client/client.h client/frame_stream.h client/decoded_image.h \
               wire/product_registry.h v1/transient.pb.h v1/transient.grpc.pb.h \
               reconstruct/units.h; do
