@@ -14,10 +14,6 @@
 namespace transient::openni2 {
 namespace {
 
-// OpenNI2's log severities (XnLog.h, not in the public headers).
-constexpr int kLogInfo = 1;
-constexpr int kLogWarning = 2;
-
 // The rate every mode announces: applications ask for exactly 30 (ROS, PCL, RTAB-Map). The
 // frames come at the daemon's rate.
 constexpr int kModeFps = 30;

@@ -25,6 +25,11 @@ namespace transient::openni2 {
 
 class Device;
 
+// OpenNI2's log severities (XnLog.h, which its public headers do not include), for
+// DeviceEvents::log and the driver's own lines.
+inline constexpr int kLogInfo = 1;
+inline constexpr int kLogWarning = 2;
+
 // What a device tells its driver: a log line, and a change of its state (OpenNI2's
 // deviceStateChanged: ONI_DEVICE_STATE_ERROR when the daemon is lost, OK when it is back).
 struct DeviceEvents {

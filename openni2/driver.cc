@@ -17,9 +17,6 @@
 namespace transient::openni2 {
 namespace {
 
-constexpr int kLogInfo = 1;
-constexpr int kLogWarning = 2;
-
 // How long initialize() waits for the default daemon: OpenNI2 initialises every driver in its
 // folder in every program that opens a camera, so a daemon that is not running must cost them
 // no more than this.
