@@ -4,6 +4,7 @@
 // OpenSource and through a second transientd, and its bad inputs.
 #include <OpenNI.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -32,18 +33,20 @@ using testing::ScratchDirectory;
 using testing::WaitForPortFile;
 using testing::WaitUntil;
 
-// A recording of transientd's OpenNI2 device (640 x 480 mm, the device's default), and its
-// frames as OpenNI2's own player gives them.
+// A recording of transientd's OpenNI2 device (640 x 480 mm, the device's default; with `ir`,
+// its IR stream too), and its frames as OpenNI2's own player gives them, in the order played.
 struct Recording {
   std::string path;
   std::vector<ReaderFrame> frames;
 };
 
-Recording Record(const ScratchDirectory& scratch) {
+Recording Record(const ScratchDirectory& scratch, bool ir = false) {
   Daemon daemon(scratch);
   EXPECT_GT(daemon.port(), 0);
   Recording recording{.path = scratch.File("capture.oni"), .frames = {}};
-  const testing::ProcessResult record = RunReader({"record", daemon.uri(), "5", recording.path});
+  std::vector<std::string> args = {"record", daemon.uri(), "5", recording.path};
+  if (ir) args.push_back("ir");
+  const testing::ProcessResult record = RunReader(args);
   EXPECT_EQ(record.exit_code, 0) << record.err;
   const testing::ProcessResult play = RunReader({"play", recording.path, scratch.File("p.bin")});
   EXPECT_EQ(play.exit_code, 0) << play.err;
@@ -87,6 +90,49 @@ TEST(OpenNi2Source, AFastReplayGivesEveryRecordedFrameOnceThenEnds) {
   }
   EXPECT_TRUE(absl::IsOutOfRange(status)) << status;
   EXPECT_EQ(delivered, recording.frames.size()) << "every frame once";
+}
+
+TEST(OpenNi2Source, IrOfTheSameCaptureBecomesTheCyclesAmplitude) {
+  ScratchDirectory scratch;
+  const Recording recording = Record(scratch, /*ir=*/true);
+  std::vector<ReaderFrame> depth, ir;
+  for (const ReaderFrame& frame : recording.frames) {
+    (frame.format == openni::PIXEL_FORMAT_GRAY16 ? ir : depth).push_back(frame);
+  }
+  ASSERT_GE(depth.size(), 3u);
+  ASSERT_GE(ir.size(), 3u);
+  absl::StatusOr<std::unique_ptr<CaptureSource>> source =
+      OpenSource(absl::StrCat("openni2:", recording.path, "?pace=fast"));
+  ASSERT_TRUE(source.ok()) << source.status();
+  EXPECT_TRUE((*source)->schedule().options().depth_amplitude);
+  ASSERT_TRUE((*source)->Start().ok());
+  RawFrame frame;
+  absl::Status status;
+  int cycles = 0;
+  while ((status = (*source)->Next(absl::Seconds(5), &frame)).ok()) {
+    ASSERT_EQ(frame.config.content, FrameContent::kDepth);
+    const double timestamp_s = frame.config.timestamp_s;
+    const std::vector<float> z = frame.pixels;
+    ASSERT_TRUE((*source)->Next(absl::Seconds(5), &frame).ok()) << "the cycle's amplitude";
+    ASSERT_EQ(frame.config.content, FrameContent::kAmplitude);
+    EXPECT_EQ(frame.config.cycle, cycles);
+    // The IR frame of the same capture: the driver gave both the capture's timestamp.
+    EXPECT_DOUBLE_EQ(frame.config.timestamp_s, timestamp_s);
+    bool found = false;
+    for (size_t i = 0; i < ir.size() && !found; ++i) {
+      if (ir[i].timestamp_us * 1e-6 != timestamp_s) continue;
+      found = true;
+      for (size_t p = 0; p < ir[i].pixels.size(); ++p) {
+        ASSERT_EQ(frame.pixels[p], static_cast<float>(ir[i].pixels[p])) << "pixel " << p;
+      }
+      ASSERT_EQ(z.size(), depth[0].pixels.size());
+    }
+    EXPECT_TRUE(found) << "an amplitude frame of no recorded IR frame";
+    ++cycles;
+  }
+  EXPECT_TRUE(absl::IsOutOfRange(status)) << status;
+  EXPECT_GE(cycles, 3);
+  EXPECT_LE(cycles, static_cast<int>(std::min(depth.size(), ir.size())));
 }
 
 TEST(OpenNi2Source, TransientdServesTheRecordingsDepthAndRefusesTransientProducts) {

@@ -5,11 +5,11 @@
 //   openni_only_reader live URI FRAMES OUT [WxH] [mm|100um]
 //       opens URI, prints the device's and the depth stream's properties, reads FRAMES depth
 //       frames (of that mode, when given) and writes them to OUT
-//   openni_only_reader record URI FRAMES FILE.oni
-//       records FRAMES frames of the depth stream with OpenNI2's Recorder
+//   openni_only_reader record URI FRAMES FILE.oni [ir]
+//       records FRAMES frames of the depth stream (and the IR stream) with OpenNI2's Recorder
 //   openni_only_reader play FILE.oni OUT
 //       plays FILE.oni in manual mode (a frame per waitForAnyStream, none dropped), writes every
-//       frame to OUT and prints the file's frame count
+//       frame of its depth (and IR) stream to OUT in the order read, and prints the frame counts
 //
 // OUT holds, per frame: int64 frame index, uint64 timestamp (us), int32 width, int32 height,
 // int32 pixel format, then width * height uint16 pixels, little endian, row by row.
@@ -119,14 +119,25 @@ int main(int argc, char** argv) {
     depth.stop();
     if (std::fclose(out) != 0) status = Fail("write frames");
   } else if (command == "record" && argc >= 5) {
+    const bool with_ir = argc >= 6 && std::strcmp(argv[5], "ir") == 0;
+    openni::VideoStream ir;
+    if (with_ir && ir.create(device, openni::SENSOR_IR) != openni::STATUS_OK) {
+      return Fail("create the IR stream");
+    }
     openni::Recorder recorder;
     if (recorder.create(argv[4]) != openni::STATUS_OK) return Fail("Recorder::create");
     if (recorder.attach(depth) != openni::STATUS_OK) return Fail("Recorder::attach");
+    if (with_ir && recorder.attach(ir) != openni::STATUS_OK) return Fail("Recorder::attach IR");
     if (depth.start() != openni::STATUS_OK) return Fail("start");
+    if (with_ir && ir.start() != openni::STATUS_OK) return Fail("start IR");
     if (recorder.start() != openni::STATUS_OK) return Fail("Recorder::start");
     if (!ReadFrames(depth, std::atoi(argv[3]), nullptr)) status = Fail("read frames");
     recorder.stop();
     depth.stop();
+    if (with_ir) {
+      ir.stop();
+      ir.destroy();
+    }
     recorder.destroy();
   } else if (command == "play") {
     openni::PlaybackControl* playback = device.getPlaybackControl();
@@ -135,12 +146,29 @@ int main(int argc, char** argv) {
     playback->setSpeed(-1.0f);  // manual: one frame per waitForAnyStream
     const int frames = playback->getNumberOfFrames(depth);
     std::printf("frames=%d\n", frames);
+    openni::VideoStream ir;
+    const bool with_ir = device.hasSensor(openni::SENSOR_IR) &&
+                         ir.create(device, openni::SENSOR_IR) == openni::STATUS_OK;
+    const int ir_frames = with_ir ? playback->getNumberOfFrames(ir) : 0;
+    std::printf("ir_frames=%d\n", ir_frames);
     PrintProperties(device, depth);
     std::FILE* out = std::fopen(argv[3], "wb");
     if (out == nullptr) return Fail(std::string("cannot write ") + argv[3]);
     if (depth.start() != openni::STATUS_OK) return Fail("start");
-    if (!ReadFrames(depth, frames, out)) status = Fail("play frames");
+    if (with_ir && ir.start() != openni::STATUS_OK) return Fail("start IR");
+    // Both streams in one loop: each wait plays the file's next frame, of either stream.
+    openni::VideoStream* streams[] = {&depth, &ir};
+    for (int n = 0; n < frames + ir_frames && status == 0; ++n) {
+      int ready = -1;
+      openni::VideoFrameRef frame;
+      if (openni::OpenNI::waitForAnyStream(streams, with_ir ? 2 : 1, &ready, 10000) !=
+              openni::STATUS_OK ||
+          streams[ready]->readFrame(&frame) != openni::STATUS_OK || !WriteFrame(out, frame)) {
+        status = Fail("play frames");
+      }
+    }
     depth.stop();
+    if (with_ir) ir.stop();
     if (std::fclose(out) != 0) status = Fail("write frames");
   } else {
     std::fprintf(stderr, "openni_only_reader: unknown command %s\n", command.c_str());
