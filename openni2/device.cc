@@ -85,11 +85,15 @@ CameraInfo SensorOf(const v1::Info& info) {
   return camera;
 }
 
-// The sensor's size, then OpenNI2's standard sizes that differ from it.
-std::vector<std::pair<int, int>> ModeSizes(const CameraInfo& sensor) {
-  std::vector<std::pair<int, int>> sizes = {{sensor.geometry.width, sensor.geometry.height}};
-  for (const std::pair<int, int>& standard : {std::pair{640, 480}, std::pair{320, 240}}) {
-    if (standard != sizes.front()) sizes.push_back(standard);
+// The sensor's size, OpenNI2's standard sizes, and the URI's size, each once.
+std::vector<std::pair<int, int>> ModeSizes(const CameraInfo& sensor, const DeviceUri& uri) {
+  std::vector<std::pair<int, int>> sizes;
+  for (const std::pair<int, int>& size :
+       {std::pair{sensor.geometry.width, sensor.geometry.height}, std::pair{640, 480},
+        std::pair{320, 240}, std::pair{uri.width, uri.height}}) {
+    if (size.first > 0 && std::find(sizes.begin(), sizes.end(), size) == sizes.end()) {
+      sizes.push_back(size);
+    }
   }
   return sizes;
 }
@@ -315,7 +319,7 @@ Device::Device(DeviceUri uri, client::Client client, v1::Info info, DeviceEvents
       sensor_(SensorOf(info_)),
       max_depth_m_(info_.unambiguous_range_m()) {
   for (const int product : info_.products()) has_ir_ |= product == v1::AMPLITUDE;
-  for (const auto& [width, height] : ModeSizes(sensor_)) {
+  for (const auto& [width, height] : ModeSizes(sensor_, uri_)) {
     for (const OniPixelFormat format : {ONI_PIXEL_FORMAT_DEPTH_1_MM, ONI_PIXEL_FORMAT_DEPTH_100_UM}) {
       depth_modes_.push_back({.pixelFormat = format, .resolutionX = width, .resolutionY = height,
                               .fps = kModeFps});

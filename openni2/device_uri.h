@@ -2,7 +2,8 @@
 // at HOST:PORT (or transient://unix:PATH). Keys:
 //   unit=mm|100um   the depth stream's default pixel format, DEPTH_1_MM (default) or DEPTH_100_UM
 //   size=WxH        the default size of every stream (default 640x480: what OpenNI2 applications
-//                   ask for; `native` = the sensor's)
+//                   ask for; `native` = the sensor's); offered as a mode beside the sensor's,
+//                   640x480 and 320x240
 //   ir_scale=S      IR (amplitude) counts per sensor unit, > 0 (default 1)
 #pragma once
 

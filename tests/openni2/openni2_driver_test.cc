@@ -267,6 +267,16 @@ TEST(OpenNi2Driver, AnnouncesTheDefaultDaemonAndAnswersPropertiesOfEitherInteger
   openni::VideoMode absent = mode;
   absent.setResolution(123, 45);
   EXPECT_NE(depth.setVideoMode(absent), openni::STATUS_OK) << "a mode the sensor does not offer";
+
+  // A size the URI asks for is one more mode, and the streams' first.
+  openni::Device sized;
+  ASSERT_EQ(sized.open(absl::StrCat(daemon.uri(), "?size=400x300").c_str()), openni::STATUS_OK);
+  openni::VideoStream sized_depth;
+  ASSERT_EQ(sized_depth.create(sized, openni::SENSOR_DEPTH), openni::STATUS_OK);
+  EXPECT_EQ(sized_depth.getVideoMode().getResolutionX(), 400);
+  EXPECT_EQ(sized_depth.getVideoMode().getResolutionY(), 300);
+  EXPECT_EQ(sized_depth.getSensorInfo().getSupportedVideoModes().getSize(), modes.getSize() + 2)
+      << "in mm and in 100 um";
 }
 
 TEST(OpenNi2Driver, VgaIsTheIdealPinholeOfItsFieldOfView) {
