@@ -25,6 +25,9 @@ constexpr uint64_t kRestartGapUs = 33333;
 
 bool IsDepth(OniSensorType type) { return type == ONI_SENSOR_DEPTH; }
 
+// Bytes per pixel: 3 for the colour stream's RGB888, 2 for depth and IR.
+int BytesPerPixel(OniSensorType type) { return type == ONI_SENSOR_COLOR ? 3 : 2; }
+
 DepthUnit UnitOf(OniPixelFormat format) {
   return format == ONI_PIXEL_FORMAT_DEPTH_100_UM ? DepthUnit::kHundredMicrometre
                                                  : DepthUnit::kMillimetre;
@@ -114,6 +117,7 @@ void Stream::UpdateGeometry() {
 }
 
 uint16_t Stream::MaxValue() const {
+  if (type_ == ONI_SENSOR_COLOR) return 255;
   if (!IsDepth(type_)) return 65535;
   return MaxDepthCount(device_->max_depth_m(), UnitOf(mode_.pixelFormat));
 }
@@ -160,7 +164,7 @@ OniStatus Stream::getProperty(int id, void* data, int* size) {
     case ONI_STREAM_PROPERTY_MIN_VALUE:
       return PutInteger(0, data, size);
     case ONI_STREAM_PROPERTY_STRIDE:
-      return PutInteger(mode_.resolutionX * static_cast<int64_t>(sizeof(uint16_t)), data, size);
+      return PutInteger(mode_.resolutionX * static_cast<int64_t>(BytesPerPixel(type_)), data, size);
     case ONI_STREAM_PROPERTY_MIRRORING:
       return PutExactly<OniBool>(mirror_ ? TRUE : FALSE, data, size);
     case ONI_STREAM_PROPERTY_CROPPING:
@@ -272,25 +276,34 @@ void Stream::Raise(uint64_t frame_index, uint64_t timestamp_us, const std::vecto
   {
     std::lock_guard lock(mutex_);
     const int width = mode_.resolutionX, height = mode_.resolutionY;
-    const int bytes = width * height * static_cast<int>(sizeof(uint16_t));
+    const int bytes_per_pixel = BytesPerPixel(type_);
+    const int bytes = width * height * bytes_per_pixel;
     if (frame->dataSize < bytes) {
       // Sized for an earlier, smaller mode (the core sizes its buffers when the stream starts).
       getServices().releaseFrame(frame);
       return;
     }
-    auto* out = static_cast<uint16_t*>(frame->data);
     const uint16_t max_count = MaxValue();
     const DepthUnit unit = UnitOf(mode_.pixelFormat);
     const double ir_scale = device_->uri().ir_scale;
+    auto* out = static_cast<uint8_t*>(frame->data);
     for (int v = 0; v < height; ++v) {
       for (int u = 0; u < width; ++u) {
         const int32_t from = map_[static_cast<size_t>(v) * width + u];
+        uint8_t* pixel = out + (static_cast<size_t>(v) * width + (mirror_ ? width - 1 - u : u)) *
+                                   bytes_per_pixel;
+        if (type_ == ONI_SENSOR_COLOR) {
+          // The amplitude as grey: red, green and blue alike.
+          const uint8_t grey = from >= 0 ? GreyLevel(image[from], ir_scale) : 0;
+          pixel[0] = pixel[1] = pixel[2] = grey;
+          continue;
+        }
         uint16_t value = 0;
         if (from >= 0) {
           value = IsDepth(type_) ? DepthCount(image[from], unit, max_count)
                                  : IrCount(image[from], ir_scale);
         }
-        out[static_cast<size_t>(v) * width + (mirror_ ? width - 1 - u : u)] = value;
+        std::memcpy(pixel, &value, sizeof value);
       }
     }
     frame->dataSize = bytes;
@@ -300,7 +313,7 @@ void Stream::Raise(uint64_t frame_index, uint64_t timestamp_us, const std::vecto
     frame->videoMode = mode_;
     frame->width = width;
     frame->height = height;
-    frame->stride = width * static_cast<int>(sizeof(uint16_t));
+    frame->stride = width * bytes_per_pixel;
     frame->croppingEnabled = FALSE;
     frame->cropOriginX = frame->cropOriginY = 0;
   }
@@ -326,6 +339,8 @@ Device::Device(DeviceUri uri, client::Client client, v1::Info info, DeviceEvents
     }
     ir_modes_.push_back({.pixelFormat = ONI_PIXEL_FORMAT_GRAY16, .resolutionX = width,
                          .resolutionY = height, .fps = kModeFps});
+    color_modes_.push_back({.pixelFormat = ONI_PIXEL_FORMAT_RGB888, .resolutionX = width,
+                            .resolutionY = height, .fps = kModeFps});
   }
   sensor_infos_.push_back({.sensorType = ONI_SENSOR_DEPTH,
                            .numSupportedVideoModes = static_cast<int>(depth_modes_.size()),
@@ -334,6 +349,11 @@ Device::Device(DeviceUri uri, client::Client client, v1::Info info, DeviceEvents
     sensor_infos_.push_back({.sensorType = ONI_SENSOR_IR,
                              .numSupportedVideoModes = static_cast<int>(ir_modes_.size()),
                              .pSupportedVideoModes = ir_modes_.data()});
+    // The amplitude again, as the grey "colour" image that applications pair with depth
+    // (RTAB-Map, PCL's frame rate); registered to depth by construction.
+    sensor_infos_.push_back({.sensorType = ONI_SENSOR_COLOR,
+                             .numSupportedVideoModes = static_cast<int>(color_modes_.size()),
+                             .pSupportedVideoModes = color_modes_.data()});
   }
 }
 
@@ -359,11 +379,15 @@ OniStatus Device::getSensorInfoList(OniSensorInfo** sensors, int* count) {
 }
 
 oni::driver::StreamBase* Device::createStream(OniSensorType type) {
-  if (type != ONI_SENSOR_DEPTH && !(type == ONI_SENSOR_IR && has_ir_)) return nullptr;
+  if (type != ONI_SENSOR_DEPTH &&
+      !((type == ONI_SENSOR_IR || type == ONI_SENSOR_COLOR) && has_ir_)) {
+    return nullptr;
+  }
   const int width = uri_.width == 0 ? sensor_.geometry.width : uri_.width;
   const int height = uri_.height == 0 ? sensor_.geometry.height : uri_.height;
   const OniPixelFormat format =
-      type == ONI_SENSOR_IR ? ONI_PIXEL_FORMAT_GRAY16
+      type == ONI_SENSOR_IR      ? ONI_PIXEL_FORMAT_GRAY16
+      : type == ONI_SENSOR_COLOR ? ONI_PIXEL_FORMAT_RGB888
       : uri_.unit == DepthUnit::kMillimetre ? ONI_PIXEL_FORMAT_DEPTH_1_MM
                                             : ONI_PIXEL_FORMAT_DEPTH_100_UM;
   return new Stream(this, type,

@@ -1,5 +1,5 @@
-// One transientd as an OpenNI2 device: its depth and IR (amplitude) sensors, their streams, and
-// the thread that receives the daemon's frames and hands them to the started streams
+// One transientd as an OpenNI2 device: its depth, IR and colour (both amplitude) sensors, their
+// streams, and the thread that receives the daemon's frames and hands them to the started streams
 // (../shared/research/openni2.md, section 6.1; the driver API is Driver/OniDriverAPI.h).
 #pragma once
 
@@ -37,7 +37,7 @@ struct DeviceEvents {
   std::function<void(const std::string& uri, OniDeviceState state)> state_changed;
 };
 
-// A depth or IR stream. Properties: VIDEO_MODE (get, set), HORIZONTAL_FOV, VERTICAL_FOV,
+// A depth, IR (GRAY16 amplitude) or colour (RGB888 grey amplitude) stream. Properties: VIDEO_MODE (get, set), HORIZONTAL_FOV, VERTICAL_FOV,
 // MAX_VALUE, MIN_VALUE, STRIDE, MIRRORING (get, set), CROPPING (get; set only to disabled), and
 // PS1080's ZERO_PLANE_DISTANCE, ZERO_PLANE_PIXEL_SIZE, EMITTER_DCMOS_DISTANCE (get), integers
 // as 4 or 8 bytes. Anything else is ONI_STATUS_NOT_SUPPORTED.
@@ -107,7 +107,7 @@ class Device : public oni::driver::DeviceBase {
   CameraInfo sensor_;
   double max_depth_m_ = 0.0;
   bool has_ir_ = false;
-  std::vector<OniVideoMode> depth_modes_, ir_modes_;
+  std::vector<OniVideoMode> depth_modes_, ir_modes_, color_modes_;
   std::vector<OniSensorInfo> sensor_infos_;
   OniImageRegistrationMode registration_ = ONI_IMAGE_REGISTRATION_OFF;
 

@@ -40,6 +40,10 @@ uint16_t IrCount(float amplitude, double scale) {
   return static_cast<uint16_t>(std::min(count, 65535.0));
 }
 
+uint8_t GreyLevel(float amplitude, double scale) {
+  return static_cast<uint8_t>(std::min<int>(255, (IrCount(amplitude, scale) + 4) / 8));
+}
+
 double VirtualCamera::HorizontalFov() const { return 2.0 * std::atan(width / (2.0 * focal_px)); }
 double VirtualCamera::VerticalFov() const { return 2.0 * std::atan(height / (2.0 * focal_px)); }
 

@@ -48,6 +48,16 @@ TEST(OniFrames, IrCountsAreScaledRoundedAndClamped) {
   EXPECT_EQ(IrCount(kNaN, 1.0), 0);
 }
 
+TEST(OniFrames, GreyLevelsAreAnEighthOfTheIrCounts) {
+  EXPECT_EQ(GreyLevel(0.0f, 1.0), 0);
+  EXPECT_EQ(GreyLevel(8.0f, 1.0), 1);
+  EXPECT_EQ(GreyLevel(800.0f, 1.0), 100);
+  EXPECT_EQ(GreyLevel(80.0f, 10.0), 100);
+  EXPECT_EQ(GreyLevel(2040.0f, 1.0), 255);
+  EXPECT_EQ(GreyLevel(1e6f, 1.0), 255);
+  EXPECT_EQ(GreyLevel(kNaN, 1.0), 0);
+}
+
 CameraInfo Sensor(int width, int height, double f, double cx, double cy) {
   CameraInfo sensor;
   sensor.geometry = {.width = width, .height = height};

@@ -387,6 +387,40 @@ TEST(OpenNi2Driver, HundredMicrometresMirroringAndIrShareTheCapture) {
   depth.stop();
 }
 
+TEST(OpenNi2Driver, TheColourStreamIsTheAmplitudeInGrey) {
+  ScratchDirectory scratch;
+  Daemon daemon(scratch);
+  ASSERT_GT(daemon.port(), 0);
+  GrpcFrames grpc(daemon.address());
+  OpenNi openni(daemon.address());
+  ASSERT_TRUE(openni.ok()) << openni::OpenNI::getExtendedError();
+  openni::Device device;
+  ASSERT_EQ(device.open(absl::StrCat(daemon.uri(), "?size=native").c_str()), openni::STATUS_OK);
+  ASSERT_NE(device.getSensorInfo(openni::SENSOR_COLOR), nullptr);
+  openni::VideoStream colour;
+  ASSERT_EQ(colour.create(device, openni::SENSOR_COLOR), openni::STATUS_OK);
+  EXPECT_EQ(colour.getVideoMode().getPixelFormat(), openni::PIXEL_FORMAT_RGB888);
+  EXPECT_EQ(colour.getMaxPixelValue(), 255);
+  ASSERT_EQ(colour.start(), openni::STATUS_OK);
+  openni::VideoFrameRef frame;
+  ASSERT_TRUE(NextFrame(colour, &frame));
+  ASSERT_EQ(frame.getWidth(), kWidth);
+  EXPECT_EQ(frame.getStrideInBytes(), 3 * kWidth);
+  ASSERT_TRUE(WaitUntil([&] { return grpc.Has(frame.getFrameIndex()); }, absl::Seconds(10)));
+  const GrpcFrames::Frame sent = grpc.Get(frame.getFrameIndex());
+  const auto* rgb = static_cast<const uint8_t*>(frame.getData());
+  int lit = 0;
+  for (size_t pixel = 0; pixel < sent.amplitude.size(); ++pixel) {
+    const uint8_t grey = openni2::GreyLevel(sent.amplitude[pixel], 1.0);
+    ASSERT_EQ(rgb[3 * pixel], grey) << pixel;
+    ASSERT_EQ(rgb[3 * pixel + 1], grey) << pixel;
+    ASSERT_EQ(rgb[3 * pixel + 2], grey) << pixel;
+    lit += grey > 0;
+  }
+  EXPECT_GT(lit, kWidth * kHeight / 2);
+  colour.stop();
+}
+
 TEST(OpenNi2Driver, WithoutADaemonInitializeIsQuickAndAnnouncesNothing) {
   // A port nobody listens on: bind one and close it.
   ScratchDirectory scratch;

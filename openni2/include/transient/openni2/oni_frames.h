@@ -47,6 +47,10 @@ float DepthMetres(uint16_t count, DepthUnit unit);
 // An amplitude (IR) pixel as GRAY16: round(amplitude * scale) clamped to 0..65535; 0 for NaN.
 uint16_t IrCount(float amplitude, double scale);
 
+// An amplitude pixel as the grey level of an RGB888 "colour" image: IrCount / 8 (a 12-bit
+// sensor's amplitudes fill 0..255), rounded and clamped to 255.
+uint8_t GreyLevel(float amplitude, double scale);
+
 // The ideal pinhole of one stream size.
 struct VirtualCamera {
   int width = 0, height = 0;
