@@ -45,6 +45,14 @@ absl::Status BadKeyValue(absl::string_view uri, absl::string_view key, absl::str
       absl::StrCat(uri, ": ", key, " = '", value, "'; expected ", expected));
 }
 
+absl::Status UnknownKey(absl::string_view scheme, absl::string_view key,
+                        std::span<const SourceKey> keys) {
+  std::string names;
+  for (const SourceKey& k : keys) absl::StrAppend(&names, names.empty() ? "" : ", ", k.name);
+  return absl::InvalidArgumentError(
+      absl::StrCat(scheme, ": unknown key '", key, "'; accepted keys: ", names));
+}
+
 std::string PercentDecoded(absl::string_view text) {
   std::string out;
   for (size_t i = 0; i < text.size(); ++i) {

@@ -2,6 +2,7 @@
 // parser starts from: the scheme, its target (a scene, a file, a device) and the keys in order.
 #pragma once
 
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -9,6 +10,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "transient/drivers/source_registry.h"
 
 namespace transient::internal {
 
@@ -27,6 +29,11 @@ absl::StatusOr<SourceUri> ParseSourceUri(absl::string_view uri);
 // value a scheme does not accept.
 absl::Status BadKeyValue(absl::string_view uri, absl::string_view key, absl::string_view value,
                          absl::string_view expected);
+
+// InvalidArgument "<scheme>: unknown key '<key>'; accepted keys: a, b, ...", the message of a key
+// a scheme does not know, listing its keys.
+absl::Status UnknownKey(absl::string_view scheme, absl::string_view key,
+                        std::span<const SourceKey> keys);
 
 // `text` with each %XX replaced by its byte (a key or value spelling a space as %20); a % not
 // followed by two hex digits stays.

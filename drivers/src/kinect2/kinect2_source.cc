@@ -71,10 +71,7 @@ absl::StatusOr<Kinect2Options> ParseUri(absl::string_view uri) {
       (key == "command_timeout_ms" ? o.usb.command_timeout : o.usb.ready_timeout) =
           absl::Milliseconds(ms);
     } else {
-      std::string names;
-      for (const SourceKey& k : kKeys) absl::StrAppend(&names, names.empty() ? "" : ", ", k.name);
-      return absl::InvalidArgumentError(
-          absl::StrCat("usb: unknown key '", key, "'; accepted keys: ", names));
+      return internal::UnknownKey("usb", key, kKeys);
     }
     if (!status.ok()) return status;
   }

@@ -241,12 +241,6 @@ const std::map<absl::string_view, Setter>& Setters() {
   return *setters;
 }
 
-std::string KeyNames() {
-  std::vector<absl::string_view> names;
-  for (const SourceKey& key : kKeys) names.push_back(key.name);
-  return absl::StrJoin(names, ", ");
-}
-
 std::string SceneNames() {
   std::vector<absl::string_view> names;
   for (const SimulatorScene& scene : kScenes) names.push_back(scene.name);
@@ -407,8 +401,7 @@ absl::StatusOr<SimulatorOptions> ParseSimulatorUri(absl::string_view uri) {
     if (key == "camera") continue;
     const auto setter = Setters().find(key);
     if (setter == Setters().end()) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("sim: unknown key '", key, "'; accepted keys: ", KeyNames()));
+      return internal::UnknownKey("sim", key, kKeys);
     }
     if (absl::Status status = setter->second(key, value, &options); !status.ok()) return status;
   }
