@@ -152,11 +152,9 @@ inline int ExpectSameAsLive(const std::vector<v1::Frame>& replayed,
   return compared;
 }
 
-// The images of the first frame with images of a stream of `request`, decoded and keyed by
-// image name; the stream's status when it ends first (a refused request). Links
-// transient_client.
-inline absl::StatusOr<std::map<std::string, std::vector<float>>> FirstDecodedFrame(
-    Daemon& daemon, const v1::StreamRequest& request) {
+// The first frame with images of a stream of `request`, undecoded; the stream's status when it
+// ends first (a refused request).
+inline absl::StatusOr<v1::Frame> FirstFrame(Daemon& daemon, const v1::StreamRequest& request) {
   grpc::ClientContext context;
   context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(60)));
   auto reader = daemon.Stub()->StreamFrames(&context, request);
@@ -165,14 +163,22 @@ inline absl::StatusOr<std::map<std::string, std::vector<float>>> FirstDecodedFra
     if (frame.images_size() == 0) continue;
     context.TryCancel();
     (void)reader->Finish();
-    absl::StatusOr<std::vector<client::DecodedImage>> images = client::DecodeFrame(frame);
-    if (!images.ok()) return images.status();
-    std::map<std::string, std::vector<float>> out;
-    for (client::DecodedImage& image : *images) out[image.name] = std::move(image.values);
-    return out;
+    return frame;
   }
   const grpc::Status status = reader->Finish();
   return absl::Status(static_cast<absl::StatusCode>(status.error_code()), status.error_message());
+}
+
+// Its images decoded and keyed by image name. Links transient_client.
+inline absl::StatusOr<std::map<std::string, std::vector<float>>> FirstDecodedFrame(
+    Daemon& daemon, const v1::StreamRequest& request) {
+  absl::StatusOr<v1::Frame> frame = FirstFrame(daemon, request);
+  if (!frame.ok()) return frame.status();
+  absl::StatusOr<std::vector<client::DecodedImage>> images = client::DecodeFrame(*frame);
+  if (!images.ok()) return images.status();
+  std::map<std::string, std::vector<float>> out;
+  for (client::DecodedImage& image : *images) out[image.name] = std::move(image.values);
+  return out;
 }
 
 }  // namespace transient::service::testing

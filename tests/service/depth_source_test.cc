@@ -27,6 +27,7 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;
 using ::transient::service::testing::FirstDecodedFrame;
+using ::transient::service::testing::FirstFrame;
 using ::transient::service::testing::Request;
 using ::transient::testing::IsOk;
 using ::transient::testing::StatusIs;
@@ -115,23 +116,6 @@ PipelineOptions DepthCamera(bool amplitude) {
     return std::make_unique<TestDepthSource>(amplitude);
   };
   return options;
-}
-
-// The first frame with images of a stream of `request`, undecoded; the stream's status when it
-// ends first.
-absl::StatusOr<v1::Frame> FirstFrame(Daemon& daemon, const v1::StreamRequest& request) {
-  grpc::ClientContext context;
-  context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(30)));
-  auto reader = daemon.Stub()->StreamFrames(&context, request);
-  v1::Frame frame;
-  while (reader->Read(&frame)) {
-    if (frame.images_size() == 0) continue;
-    context.TryCancel();
-    (void)reader->Finish();
-    return frame;
-  }
-  const grpc::Status status = reader->Finish();
-  return absl::Status(static_cast<absl::StatusCode>(status.error_code()), status.error_message());
 }
 
 TEST(DepthSourceDaemon, ServesTheGivenDepthItsRangeAmplitudeFlagsAndMomentDepth) {
