@@ -190,6 +190,29 @@ std::vector<uint16_t> Pixels(const openni::VideoFrameRef& frame) {
   return {data, data + static_cast<size_t>(frame.getWidth()) * frame.getHeight()};
 }
 
+// transientd on the simulator, its frames over gRPC, and OpenNI2 in this process with the driver
+// pointed at it: what a device's frames are compared with.
+class OpenNi2DriverFrames : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_GT(daemon_.port(), 0);
+    ASSERT_TRUE(openni_.ok()) << openni::OpenNI::getExtendedError();
+  }
+  // The daemon's frame of `index` (over gRPC); empty, with a failure, when it never came.
+  GrpcFrames::Frame Sent(uint64_t index) {
+    if (!WaitUntil([&] { return grpc_.Has(index); }, absl::Seconds(10))) {
+      ADD_FAILURE() << "frame " << index << " never came over gRPC";
+      return {};
+    }
+    return grpc_.Get(index);
+  }
+
+  ScratchDirectory scratch_;
+  Daemon daemon_{scratch_};
+  GrpcFrames grpc_{daemon_.address()};
+  OpenNi openni_{daemon_.address()};
+};
+
 TEST(OpenNi2Driver, AnnouncesTheDefaultDaemonAndAnswersPropertiesOfEitherIntegerSize) {
   ScratchDirectory scratch;
   Daemon daemon(scratch);
@@ -268,6 +291,13 @@ TEST(OpenNi2Driver, AnnouncesTheDefaultDaemonAndAnswersPropertiesOfEitherInteger
   absent.setResolution(123, 45);
   EXPECT_NE(depth.setVideoMode(absent), openni::STATUS_OK) << "a mode the sensor does not offer";
 
+  // Bad keys and values of a device URI: refused, though the daemon answers.
+  for (const char* query : {"?unit=cm", "?size=0x480", "?size=big", "?ir_scale=-1",
+                            "?ir_scale=x", "?colour=red", "?unit"}) {
+    openni::Device bad;
+    EXPECT_NE(bad.open(absl::StrCat(daemon.uri(), query).c_str()), openni::STATUS_OK) << query;
+  }
+
   // A size the URI asks for is one more mode, and the streams' first.
   openni::Device sized;
   ASSERT_EQ(sized.open(absl::StrCat(daemon.uri(), "?size=400x300").c_str()), openni::STATUS_OK);
@@ -279,29 +309,23 @@ TEST(OpenNi2Driver, AnnouncesTheDefaultDaemonAndAnswersPropertiesOfEitherInteger
       << "in mm and in 100 um";
 }
 
-TEST(OpenNi2Driver, VgaIsTheIdealPinholeOfItsFieldOfView) {
-  ScratchDirectory scratch;
-  Daemon daemon(scratch);
-  ASSERT_GT(daemon.port(), 0);
-  GrpcFrames grpc(daemon.address());
-  OpenNi openni(daemon.address());
-  ASSERT_TRUE(openni.ok()) << openni::OpenNI::getExtendedError();
+TEST_F(OpenNi2DriverFrames, VgaIsTheIdealPinholeOfItsFieldOfView) {
   openni::Device device;
-  ASSERT_EQ(device.open(daemon.uri().c_str()), openni::STATUS_OK);
+  ASSERT_EQ(device.open(daemon_.uri().c_str()), openni::STATUS_OK);
   openni::VideoStream depth;
   ASSERT_EQ(depth.create(device, openni::SENSOR_DEPTH), openni::STATUS_OK);
   ASSERT_EQ(depth.start(), openni::STATUS_OK);
   openni::VideoFrameRef frame;
   ASSERT_TRUE(NextFrame(depth, &frame));
   ASSERT_EQ(frame.getWidth(), 640);
-  ASSERT_TRUE(WaitUntil([&] { return grpc.Has(frame.getFrameIndex()); }, absl::Seconds(10)));
-  const GrpcFrames::Frame sent = grpc.Get(frame.getFrameIndex());
+  const GrpcFrames::Frame sent = Sent(frame.getFrameIndex());
+  ASSERT_FALSE(sent.depth_mm.empty());
   const double hfov = depth.getHorizontalFieldOfView();
   const std::vector<uint16_t> pixels = Pixels(frame);
   int mismatches = 0, with_depth = 0;
   for (int v = 0; v < 480; ++v) {
     for (int u = 0; u < 640; ++u) {
-      const uint16_t expected = ExpectedResampled(sent, grpc.info().camera(), 640, 480, hfov, u, v);
+      const uint16_t expected = ExpectedResampled(sent, grpc_.info().camera(), 640, 480, hfov, u, v);
       mismatches += pixels[v * 640 + u] != expected;
       with_depth += expected != 0;
     }
@@ -328,15 +352,9 @@ TEST(OpenNi2Driver, VgaIsTheIdealPinholeOfItsFieldOfView) {
   depth.stop();
 }
 
-TEST(OpenNi2Driver, HundredMicrometresMirroringAndIrShareTheCapture) {
-  ScratchDirectory scratch;
-  Daemon daemon(scratch);
-  ASSERT_GT(daemon.port(), 0);
-  GrpcFrames grpc(daemon.address());
-  OpenNi openni(daemon.address());
-  ASSERT_TRUE(openni.ok()) << openni::OpenNI::getExtendedError();
+TEST_F(OpenNi2DriverFrames, HundredMicrometresMirroringAndIrShareTheCapture) {
   openni::Device device;
-  ASSERT_EQ(device.open(absl::StrCat(daemon.uri(), "?size=native&unit=100um").c_str()),
+  ASSERT_EQ(device.open(absl::StrCat(daemon_.uri(), "?size=native&unit=100um").c_str()),
             openni::STATUS_OK);
   openni::VideoStream depth, ir;
   ASSERT_EQ(depth.create(device, openni::SENSOR_DEPTH), openni::STATUS_OK);
@@ -362,8 +380,8 @@ TEST(OpenNi2Driver, HundredMicrometresMirroringAndIrShareTheCapture) {
   }
   ASSERT_EQ(ir_frame.getFrameIndex(), depth_frame.getFrameIndex());
   EXPECT_EQ(ir_frame.getTimestamp(), depth_frame.getTimestamp());
-  ASSERT_TRUE(WaitUntil([&] { return grpc.Has(depth_frame.getFrameIndex()); }, absl::Seconds(10)));
-  const GrpcFrames::Frame sent = grpc.Get(depth_frame.getFrameIndex());
+  const GrpcFrames::Frame sent = Sent(depth_frame.getFrameIndex());
+  ASSERT_FALSE(sent.depth_mm.empty());
   const std::vector<uint16_t> depth_pixels = Pixels(depth_frame), ir_pixels = Pixels(ir_frame);
   ASSERT_EQ(depth_pixels.size(), static_cast<size_t>(kWidth * kHeight));
   int compared = 0;
@@ -387,15 +405,9 @@ TEST(OpenNi2Driver, HundredMicrometresMirroringAndIrShareTheCapture) {
   depth.stop();
 }
 
-TEST(OpenNi2Driver, TheColourStreamIsTheAmplitudeInGrey) {
-  ScratchDirectory scratch;
-  Daemon daemon(scratch);
-  ASSERT_GT(daemon.port(), 0);
-  GrpcFrames grpc(daemon.address());
-  OpenNi openni(daemon.address());
-  ASSERT_TRUE(openni.ok()) << openni::OpenNI::getExtendedError();
+TEST_F(OpenNi2DriverFrames, TheColourStreamIsTheAmplitudeInGrey) {
   openni::Device device;
-  ASSERT_EQ(device.open(absl::StrCat(daemon.uri(), "?size=native").c_str()), openni::STATUS_OK);
+  ASSERT_EQ(device.open(absl::StrCat(daemon_.uri(), "?size=native").c_str()), openni::STATUS_OK);
   ASSERT_NE(device.getSensorInfo(openni::SENSOR_COLOR), nullptr);
   openni::VideoStream colour;
   ASSERT_EQ(colour.create(device, openni::SENSOR_COLOR), openni::STATUS_OK);
@@ -406,8 +418,8 @@ TEST(OpenNi2Driver, TheColourStreamIsTheAmplitudeInGrey) {
   ASSERT_TRUE(NextFrame(colour, &frame));
   ASSERT_EQ(frame.getWidth(), kWidth);
   EXPECT_EQ(frame.getStrideInBytes(), 3 * kWidth);
-  ASSERT_TRUE(WaitUntil([&] { return grpc.Has(frame.getFrameIndex()); }, absl::Seconds(10)));
-  const GrpcFrames::Frame sent = grpc.Get(frame.getFrameIndex());
+  const GrpcFrames::Frame sent = Sent(frame.getFrameIndex());
+  ASSERT_FALSE(sent.amplitude.empty());
   const auto* rgb = static_cast<const uint8_t*>(frame.getData());
   int lit = 0;
   for (size_t pixel = 0; pixel < sent.amplitude.size(); ++pixel) {

@@ -185,8 +185,11 @@ TEST(OpenNi2Source, BadUrisAndFilesAreRefusedWithTheReason) {
   status = refused("openni2:x.oni?speed=2");
   EXPECT_TRUE(absl::IsInvalidArgument(status)) << status;
   EXPECT_THAT(status.message(), HasSubstr("speed"));
-  status = refused("openni2:x.oni?fx=-1");
-  EXPECT_TRUE(absl::IsInvalidArgument(status)) << status;
+  for (const char* bad : {"openni2:x.oni?fx=-1", "openni2:x.oni?ir=2", "openni2:x.oni?pace=slow",
+                          "openni2:x.oni?loop=yes", "openni2:x.oni?cx=nan"}) {
+    status = refused(bad);
+    EXPECT_TRUE(absl::IsInvalidArgument(status)) << bad << ": " << status;
+  }
   // No OpenNI2 device here (the private runtime has none but transientd's own, silenced).
   status = refused("openni2:");
   EXPECT_TRUE(absl::IsNotFound(status)) << status;
