@@ -96,8 +96,9 @@ class Driver : public oni::driver::DriverBase {
     DeviceEvents events{
         .log = [this](int severity, const std::string& message) { Log(severity, message); },
         .state_changed =
-            [this](const std::string& device_uri, OniDeviceState state) {
-              OniDeviceInfo info = InfoOf(device_uri, model_);
+            [this, name = NameOf(probe->info)](const std::string& device_uri,
+                                               OniDeviceState state) {
+              OniDeviceInfo info = InfoOf(device_uri, name);
               deviceStateChanged(&info, state);
             }};
     return new Device(*std::move(parsed), std::move(probe->client), std::move(probe->info),
@@ -116,17 +117,21 @@ class Driver : public oni::driver::DriverBase {
   void disableFrameSync(void* group) override { delete static_cast<int*>(group); }
 
  private:
-  static OniDeviceInfo InfoOf(const std::string& uri, const std::string& model) {
+  // The device's name: the daemon and its camera.
+  static std::string NameOf(const v1::Info& info) {
+    return absl::StrCat("transientd (", info.camera().model(), ")");
+  }
+
+  static OniDeviceInfo InfoOf(const std::string& uri, const std::string& name) {
     OniDeviceInfo info{};
     absl::SNPrintF(info.uri, sizeof info.uri, "%s", uri);
     absl::SNPrintF(info.vendor, sizeof info.vendor, "%s", "transient");
-    absl::SNPrintF(info.name, sizeof info.name, "%s", model.empty() ? "transientd" : model);
+    absl::SNPrintF(info.name, sizeof info.name, "%s", name);
     return info;
   }
 
   void Announce(const std::string& uri, const v1::Info& info) {
-    model_ = absl::StrCat("transientd (", info.camera().model(), ")");
-    OniDeviceInfo device = InfoOf(uri, model_);
+    OniDeviceInfo device = InfoOf(uri, NameOf(info));
     deviceConnected(&device);
     Log(kLogInfo, absl::StrCat("announced ", uri, ": ", info.source_uri()));
   }
@@ -136,7 +141,6 @@ class Driver : public oni::driver::DriverBase {
   }
 
   bool disabled_ = false;
-  std::string model_ = "transientd";
 };
 
 }  // namespace

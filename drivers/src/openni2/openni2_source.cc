@@ -86,10 +86,7 @@ absl::StatusOr<Options> ParseUri(absl::string_view uri) {
       }
       (key == "fx" ? o.fx : key == "fy" ? o.fy : key == "cx" ? o.cx : o.cy) = v;
     } else {
-      std::string names;
-      for (const SourceKey& k : kKeys) absl::StrAppend(&names, names.empty() ? "" : ", ", k.name);
-      return absl::InvalidArgumentError(
-          absl::StrCat("openni2: unknown key '", key, "'; accepted keys: ", names));
+      return internal::UnknownKey("openni2", key, kKeys);
     }
   }
   return o;
@@ -363,7 +360,7 @@ class OpenNi2Source final : public CaptureSource {
     const bool sizes_fit =
         Pixels(depth, /*depth=*/true, &frame->pixels) &&
         (!has_ir_ || Pixels(ir, /*depth=*/false, &amplitude_.pixels));
-    if (recording_ && !options_.loop && AtEnd()) ended_ = true;
+    if (AtEnd()) ended_ = true;
     if (!sizes_fit) {
       ++frames_dropped_;
       return absl::DataLossError(absl::StrFormat(
