@@ -3,12 +3,30 @@
 // Every function writes only the pixels in [begin, end) of outputs allocated by the caller.
 #pragma once
 
+#include <omp.h>
+
+#include <algorithm>
 #include <cstdint>
 #include <span>
 
+#include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/reconstructor.h"
 
 namespace transient::internal {
+
+// Pixels per work item of the optimized kernels: the series coefficients of a block (2m+2
+// doubles per pixel) stay in L1/L2 while every phase sweeps over them.
+inline constexpr int64_t kBlockPixels = 256;
+
+// Runs body(begin, end) over [0, count) in blocks of `block` pixels on KernelThreads() threads.
+template <typename Body>
+void ParallelBlocks(int64_t count, const Body& body, int64_t block = kBlockPixels) {
+  const int64_t blocks = (count + block - 1) / block;
+#pragma omp parallel for num_threads(KernelThreads()) schedule(dynamic, 4)
+  for (int64_t b = 0; b < blocks; ++b) {
+    body(b * block, std::min(count, (b + 1) * block));
+  }
+}
 
 // Sizes `solved` for `moments`, reusing its buffers, with every flag 0; SolvePixels writes
 // every value of its pixels (NaN for invalid ones), so nothing else is initialised here.
@@ -26,5 +44,9 @@ void CumulativePixels(const SolvedImage& solved, std::span<const double> phases,
                       int64_t end, std::span<float> out);
 void BoundPixels(const SolvedImage& solved, double r, std::span<const double> phases, int64_t begin,
                  int64_t end, std::span<float> lower, std::span<float> upper);
+
+// MESE range of pixels [begin, end): per pixel, the grid by Horner and MeseFirstPeakPhase.
+void MeseRangePixels(const SolvedImage& solved, const RangeOptions& options, int64_t begin,
+                     int64_t end, std::span<float> range_m, std::span<uint8_t> flags);
 
 }  // namespace transient::internal

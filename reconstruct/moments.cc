@@ -38,11 +38,4 @@ void DiracMoments(std::span<const double> phases, std::span<const double> weight
   moments[0] = Complex(moments[0].real(), 0.0);
 }
 
-double WrapPhase(double phase) {
-  double wrapped = std::fmod(phase, kTwoPi);
-  if (wrapped < 0.0) wrapped += kTwoPi;
-  if (wrapped >= kTwoPi) wrapped = 0.0;  // fmod of a tiny negative number plus 2*pi
-  return wrapped;
-}
-
 }  // namespace transient

@@ -21,25 +21,9 @@
 #include "kernels_internal.h"
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/mese.h"
-#include "transient/reconstruct/range.h"
 
 namespace transient::optimized {
 namespace {
-
-// Pixels per work item: the series coefficients of a block (2m+2 doubles per pixel) stay in
-// L1/L2 while every phase sweeps over them.
-constexpr int64_t kBlockPixels = 256;
-
-
-// Runs body(begin, end) over [0, count) in blocks of kBlockPixels on KernelThreads() threads.
-template <typename Body>
-void ParallelBlocks(int64_t count, const Body& body) {
-  const int64_t blocks = (count + kBlockPixels - 1) / kBlockPixels;
-#pragma omp parallel for num_threads(KernelThreads()) schedule(dynamic, 4)
-  for (int64_t b = 0; b < blocks; ++b) {
-    body(b * kBlockPixels, std::min(count, (b + 1) * kBlockPixels));
-  }
-}
 
 // Per-pixel cosine-series coefficients of the MESE denominator, planar:
 // D(phi) = scale / (a0 + sum_{k=1..m} alpha_k cos(k phi) + beta_k sin(k phi)).
@@ -60,7 +44,7 @@ void MakeSeries(const SolvedImage& solved, SeriesPlanes& s) {
   s.alpha.resize(m * s.pixels);
   s.beta.resize(m * s.pixels);
   s.scale.resize(s.pixels);
-  ParallelBlocks(s.pixels, [&](int64_t begin, int64_t end) {
+  internal::ParallelBlocks(s.pixels, [&](int64_t begin, int64_t end) {
     std::array<Complex, kMaxMoments> q, a;
     const std::span<Complex> q_span(q.data(), m + 1), a_span(a.data(), m + 1);
     for (int64_t p = begin; p < end; ++p) {
@@ -163,14 +147,14 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
 void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage* solved) {
   assert(moments.Validate().ok() && options.Validate().ok());
   internal::PrepareSolved(moments, solved);
-  ParallelBlocks(moments.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
+  internal::ParallelBlocks(moments.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
     internal::SolvePixels(moments, options, /*quick_bias_check=*/true, begin, end, solved);
   });
 }
 
 PisarenkoImage EstimatePisarenko(const SolvedImage& solved) {
   PisarenkoImage result = internal::AllocatePisarenko(solved);
-  ParallelBlocks(solved.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
+  internal::ParallelBlocks(solved.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
     internal::PisarenkoPixels(solved, begin, end, &result);
   });
   return result;
@@ -190,7 +174,7 @@ void DensitySlices(const SolvedImage& solved, std::span<const double> phases,
   std::vector<double>& sines = sine_buffer;
   MakeSeries(solved, series);
   MakeTables(phases, solved.order, &cosines, &sines);
-  ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {
+  internal::ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {
     DensityBlock(series, cosines.data(), sines.data(), static_cast<int64_t>(phases.size()), begin,
                  end, out.data());
   });
@@ -199,7 +183,7 @@ void DensitySlices(const SolvedImage& solved, std::span<const double> phases,
 void CumulativeSlices(const SolvedImage& solved, std::span<const double> phases,
                       std::span<float> out) {
   assert(out.size() == phases.size() * solved.geometry.pixel_count());
-  ParallelBlocks(solved.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
+  internal::ParallelBlocks(solved.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
     internal::CumulativePixels(solved, phases, begin, end, out);
   });
 }
@@ -208,49 +192,8 @@ void BoundSlices(const SolvedImage& solved, double r, std::span<const double> ph
                  std::span<float> lower, std::span<float> upper) {
   const int64_t pixels = solved.geometry.pixel_count();
   assert(lower.size() == phases.size() * pixels && upper.size() == lower.size());
-  ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {
+  internal::ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {
     internal::BoundPixels(solved, r, phases, begin, end, lower, upper);
-  });
-}
-
-void MeseRange(const SolvedImage& solved, const RangeOptions& options, std::span<float> range_m,
-               std::span<uint8_t> flags) {
-  const int64_t pixels = solved.geometry.pixel_count();
-  assert(range_m.size() == static_cast<size_t>(pixels) && flags.size() == range_m.size());
-  const int m = solved.order;
-  const int bins = options.SearchBins(m);
-  // Tables laid out [k][n] so that the grid of one pixel is m axpy sweeps over n.
-  std::vector<double> cosines(static_cast<size_t>(m) * bins), sines(cosines.size());
-  for (int k = 1; k <= m; ++k) {
-    for (int n = 0; n < bins; ++n) {
-      cosines[(k - 1) * bins + n] = std::cos(k * kTwoPi * n / bins);
-      sines[(k - 1) * bins + n] = std::sin(k * kTwoPi * n / bins);
-    }
-  }
-  ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {
-    std::array<Complex, kMaxMoments> q, a;
-    const std::span<Complex> q_span(q.data(), m + 1), a_span(a.data(), m + 1);
-    std::vector<double> grid(bins);
-    for (int64_t p = begin; p < end; ++p) {
-      range_m[p] = kNaNf;
-      if (!solved.valid(p)) continue;
-      solved.coefficients(p, q_span);
-      MeseDenominatorSeries(q_span, a_span);
-      std::fill(grid.begin(), grid.end(), a[0].real());
-      for (int k = 1; k <= m; ++k) {
-        const double alpha = 2.0 * a[k].real(), beta = -2.0 * a[k].imag();
-        const double* c = cosines.data() + (k - 1) * bins;
-        const double* s = sines.data() + (k - 1) * bins;
-#pragma omp simd
-        for (int n = 0; n < bins; ++n) grid[n] += alpha * c[n] + beta * s[n];
-      }
-      const double phase = MeseFirstPeakFromGrid(q_span, a_span, options.threshold, grid);
-      if (std::isnan(phase)) {
-        flags[p] |= kFlagNoReturn;
-      } else {
-        range_m[p] = static_cast<float>(PhaseToRange(phase, options.base_frequency_hz));
-      }
-    }
   });
 }
 

@@ -47,11 +47,6 @@ double RefineMinimum(std::span<const Complex> a, std::span<const Complex> p, dou
 
 }  // namespace
 
-double OrderingPhase(double phase) {
-  const double wrapped = WrapPhase(phase);
-  return wrapped >= kTwoPi - kWrapGuard ? wrapped - kTwoPi : wrapped;
-}
-
 double MeseFirstPeakPhase(std::span<const Complex> q, double threshold, int search_bins) {
   assert(search_bins >= 3);
   // Peaks of D are minima of the positive denominator |p|^2; on the grid only its value is

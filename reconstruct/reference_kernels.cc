@@ -162,6 +162,24 @@ void BoundPixels(const SolvedImage& solved, double r, std::span<const double> ph
   }
 }
 
+void MeseRangePixels(const SolvedImage& solved, const RangeOptions& options, int64_t begin,
+                     int64_t end, std::span<float> range_m, std::span<uint8_t> flags) {
+  std::array<Complex, kMaxMoments> q_storage;
+  const std::span<Complex> q(q_storage.data(), solved.order + 1);
+  const int bins = options.SearchBins(solved.order);
+  for (int64_t p = begin; p < end; ++p) {
+    range_m[p] = kNaNf;
+    if (!solved.valid(p)) continue;
+    solved.coefficients(p, q);
+    const double phase = MeseFirstPeakPhase(q, options.threshold, bins);
+    if (std::isnan(phase)) {
+      flags[p] |= kFlagNoReturn;
+    } else {
+      range_m[p] = static_cast<float>(PhaseToRange(phase, options.base_frequency_hz));
+    }
+  }
+}
+
 }  // namespace internal
 
 namespace reference {
@@ -212,21 +230,9 @@ void BoundSlices(const SolvedImage& solved, double r, std::span<const double> ph
 
 void MeseRange(const SolvedImage& solved, const RangeOptions& options, std::span<float> range_m,
                std::span<uint8_t> flags) {
-  const int64_t pixels = solved.geometry.pixel_count();
-  assert(range_m.size() == static_cast<size_t>(pixels) && flags.size() == range_m.size());
-  std::array<Complex, kMaxMoments> q_storage;
-  const std::span<Complex> q(q_storage.data(), solved.order + 1);
-  for (int64_t p = 0; p < pixels; ++p) {
-    range_m[p] = kNaNf;
-    if (!solved.valid(p)) continue;
-    solved.coefficients(p, q);
-    const double phase = MeseFirstPeakPhase(q, options.threshold, options.SearchBins(solved.order));
-    if (std::isnan(phase)) {
-      flags[p] |= kFlagNoReturn;
-    } else {
-      range_m[p] = static_cast<float>(PhaseToRange(phase, options.base_frequency_hz));
-    }
-  }
+  assert(range_m.size() == static_cast<size_t>(solved.geometry.pixel_count()) &&
+         flags.size() == range_m.size());
+  internal::MeseRangePixels(solved, options, 0, solved.geometry.pixel_count(), range_m, flags);
 }
 
 void PisarenkoRange(const PisarenkoImage& pisarenko, const RangeOptions& options,

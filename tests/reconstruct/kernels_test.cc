@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -135,9 +136,13 @@ TEST_P(Kernels, RangeWithinATenthOfAMillimetreWithIdenticalFlags) {
   const int m = GetParam();
   const SolvedImage solved = reference::Solve(RandomFrame(m, 400 + m), SolveOptions{});
   const int64_t pixels = kGeometry.pixel_count();
-  for (double threshold : {0.0, 0.1, 0.5}) {
+  // Automatic grids (16 (m+1) phases), one that is no multiple of a vector, and one coarse
+  // enough for the per-pixel path of the optimized kernel.
+  for (const auto& [threshold, bins] :
+       {std::pair{0.0, 0}, {0.1, 0}, {0.5, 0}, {0.1, 101}, {0.1, 20}}) {
     RangeOptions options;
     options.threshold = threshold;
+    options.search_bins = bins;
     std::vector<float> expected(pixels), got(pixels);
     std::vector<uint8_t> expected_flags = solved.flags, got_flags = solved.flags;
     reference::MeseRange(solved, options, expected, expected_flags);
@@ -147,7 +152,8 @@ TEST_P(Kernels, RangeWithinATenthOfAMillimetreWithIdenticalFlags) {
       if (std::isnan(expected[p])) {
         EXPECT_TRUE(std::isnan(got[p])) << p;
       } else {
-        EXPECT_NEAR(got[p], expected[p], kRangeTolerance) << "pixel " << p << " m = " << m;
+        EXPECT_NEAR(got[p], expected[p], kRangeTolerance)
+            << "pixel " << p << " m = " << m << " bins " << bins;
       }
     }
   }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <complex>
 #include <numbers>
 #include <span>
@@ -39,7 +40,16 @@ inline double RangeToPhase(double range_m, double base_frequency_hz) {
   return TimeOfFlightToPhase(2.0 * range_m / kSpeedOfLight, base_frequency_hz);
 }
 
-// Wraps a phase into [0, 2*pi).
-double WrapPhase(double phase);
+// Wraps a phase into [0, 2*pi). Inline, with phases within one turn of [0, 2*pi) handled
+// without fmod (range searches wrap ~10^7 phases a second); the results are fmod's:
+// x - 2*pi is exact for x in [2*pi, 4*pi) (Sterbenz), fmod(x) = x for x in (-2*pi, 0).
+inline double WrapPhase(double phase) {
+  if (phase >= 0.0 && phase < kTwoPi) return phase;
+  if (phase >= kTwoPi && phase < 2.0 * kTwoPi) return phase - kTwoPi;
+  double wrapped = phase > -kTwoPi && phase < 0.0 ? phase : std::fmod(phase, kTwoPi);
+  if (wrapped < 0.0) wrapped += kTwoPi;
+  if (wrapped >= kTwoPi) wrapped = 0.0;  // fmod of a tiny negative number plus 2*pi
+  return wrapped;
+}
 
 }  // namespace transient

@@ -15,7 +15,10 @@ namespace transient {
 inline constexpr double kWrapGuard = kTwoPi / 1024;
 
 // The phase used to order returns: wrapped into [-kWrapGuard, 2*pi - kWrapGuard).
-double OrderingPhase(double phase);
+inline double OrderingPhase(double phase) {
+  const double wrapped = WrapPhase(phase);
+  return wrapped >= kTwoPi - kWrapGuard ? wrapped - kTwoPi : wrapped;
+}
 
 // Phase of the first local maximum of D(phi), in [-kWrapGuard, 2*pi - kWrapGuard), whose
 // density is at least `threshold` times the highest peak's. Peaks are found on a grid of

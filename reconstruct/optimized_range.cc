@@ -1,0 +1,465 @@
+// The optimized MESE range kernel (thesis §8.4.3): the first peak of the density above the
+// threshold, the same answer as reference::MeseRange (range.cc) with the same grid, the same
+// Newton refinement and the same choice among peaks, computed across pixels instead of one
+// pixel at a time:
+// 1. per block of kRangeBlock pixels, the denominator's cosine series (thesis eq. 8.4) and
+//    p = conj(q) as planes, one SIMD lane per pixel;
+// 2. per pixel, its search grid from shared cos/sin tables (one SIMD lane per phase), and
+//    its local minima, found as set bits, gathered into a batch of candidates;
+// 3. Newton's method on the derivative of the series for eight candidates at once, one lane
+//    per candidate, masked per lane exactly as RefineMinimum of range.cc decides. No
+//    sine or cosine is called: the phase is the grid phase (tabled) plus an offset of at most
+//    one bin, and e^{i offset} is its Taylor polynomial;
+// 4. per pixel, the first peak whose density is at least `threshold` times the highest.
+// Grids coarser than kMaxRotation per bin (fewer than 26 phases) take the per-pixel path.
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include "kernels_internal.h"
+#include "transient/reconstruct/kernels.h"
+#include "transient/reconstruct/range.h"
+
+// The vector helpers below pass GCC's generic vectors by value; they are always inlined within
+// this file, so the calling convention that -Wpsabi warns about never applies.
+#pragma GCC diagnostic ignored "-Wpsabi"  // GCC and Clang both know this name
+
+namespace transient::optimized {
+namespace {
+
+// Pixels per block: their series and polynomial planes (4m + 3 doubles per pixel, 17 KB at
+// m = 16) stay in L1 while each pixel's grid is searched.
+constexpr int kRangeBlock = 64;
+// As RefineMinimum in range.cc.
+constexpr int kNewtonSteps = 8;
+constexpr double kPhaseTolerance = 1e-10;
+// Largest bin width (radians) of the vectorized path: e^{ix} for |x| <= 0.25 is its Taylor
+// polynomial to x^14 within 1e-23 (0.25^15 / 15!).
+constexpr double kMaxRotation = 0.25;
+
+// Eight candidates at a time in GCC's generic vectors, which every clone lowers to its own
+// instructions (one AVX-512 register, two AVX2 ones, four SSE2 ones).
+constexpr int kLanes = 8;
+using Vd = double __attribute__((vector_size(kLanes * sizeof(double))));
+using Vm = int64_t __attribute__((vector_size(kLanes * sizeof(int64_t))));  // a comparison
+
+__attribute__((always_inline)) inline Vd Load(const double* p) {
+  Vd v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+__attribute__((always_inline)) inline void Store(double* p, Vd v) { std::memcpy(p, &v, sizeof(v)); }
+__attribute__((always_inline)) inline Vd Splat(double x) { return Vd{} + x; }
+__attribute__((always_inline)) inline Vd Select(Vm mask, Vd yes, Vd no) {
+  return reinterpret_cast<Vd>((mask & reinterpret_cast<Vm>(yes)) | (~mask & reinterpret_cast<Vm>(no)));
+}
+__attribute__((always_inline)) inline Vd Abs(Vd x) {
+  return reinterpret_cast<Vd>(reinterpret_cast<Vm>(x) & (Vm{} + 0x7fffffffffffffff));
+}
+__attribute__((always_inline)) inline bool Any(Vm mask) {
+  int64_t any = 0;
+  for (int i = 0; i < kLanes; ++i) any |= mask[i];
+  return any != 0;
+}
+
+// The grid: phases phi_i = (i - 1) h for i = 0..bins+1 (one phase beyond each end, so that
+// the search for minima needs no wrap), h = 2 pi / bins, in rows per k = 1..m:
+// c2[(k-1) stride + i] = 2 cos(k phi_i) and s2 = -2 sin(k phi_i), so that the series
+// a_0 + 2 Re sum_k a_k e^{ik phi} is a_0 + sum_k Re(a_k) c2 + Im(a_k) s2.
+struct RangeTables {
+  int bins = 0;
+  int stride = 0;  // bins + 2, rounded up to a whole vector
+  double h = 0.0;
+  std::vector<double> c2, s2;
+  std::vector<double> cos_n, sin_n;  // e^{i n h}, n = 0..bins-1
+};
+
+RangeTables MakeRangeTables(int m, int bins) {
+  RangeTables t;
+  t.bins = bins;
+  t.stride = (bins + 2 + 7) / 8 * 8;
+  t.h = kTwoPi / bins;
+  t.c2.assign(static_cast<size_t>(t.stride) * m, 0.0);
+  t.s2.assign(t.c2.size(), 0.0);
+  t.cos_n.resize(bins);
+  t.sin_n.resize(bins);
+  for (int n = 0; n < bins; ++n) {
+    t.cos_n[n] = std::cos(n * t.h);
+    t.sin_n[n] = std::sin(n * t.h);
+  }
+  for (int i = 0; i < bins + 2; ++i) {
+    const int n = i == 0 ? bins - 1 : (i == bins + 1 ? 0 : i - 1);  // the same grid phases
+    for (int k = 1; k <= m; ++k) {
+      t.c2[(k - 1) * t.stride + i] = 2.0 * std::cos(k * n * t.h);
+      t.s2[(k - 1) * t.stride + i] = -2.0 * std::sin(k * n * t.h);
+    }
+  }
+  return t;
+}
+
+// Candidates refined together: one batch of their coefficients stays in L1/L2.
+constexpr int kBatch = 256;
+
+// Per-thread working memory, reused from block to block.
+struct RangeScratch {
+  // Planes of kRangeBlock lanes, then (per candidate) planes of kBatch: a_0, Re and Im of a_k
+  // for k = 1..m, Re and Im of p_j = conj(q_j) for j = 0..m.
+  std::vector<double> planes, coefficients;
+  std::vector<double> grid;
+  std::vector<uint8_t> minimum;
+  // The batch: grid minima, one per lane of the refinement.
+  int count = 0;
+  std::vector<int32_t> lane;
+  std::vector<double> left, middle, right;
+  std::vector<double> center_phase, center_re, center_im;  // the bin's phase, e^{i phase}
+  // Refined minima of the block: lane, phase, |p|^2 there.
+  std::vector<int32_t> peak_lane;
+  std::vector<double> peak_phase, peak_denominator;
+  int peaks = 0;
+  // Per lane: the smallest denominator of its peaks and the first peak's phase.
+  std::array<double, kRangeBlock> smallest, first;
+
+  void Reserve(int m, const RangeTables& t) {
+    const size_t planes_per_pixel = static_cast<size_t>(1 + 2 * m + 2 * (m + 1));
+    planes.resize(planes_per_pixel * kRangeBlock);
+    coefficients.resize(planes_per_pixel * kBatch + kLanes);
+    grid.resize(t.stride);
+    minimum.assign((t.bins + 7) / 8 * 8, 0);
+    for (auto* v : {&left, &middle, &right, &center_phase, &center_re, &center_im}) {
+      v->resize(kBatch + kLanes);
+    }
+    lane.resize(kBatch);
+    // A lane has at most bins/2 grid minima: two neighbours cannot both be one.
+    const size_t most = static_cast<size_t>(kRangeBlock) * (t.bins / 2 + 1) + kBatch;
+    if (peak_lane.size() < most) {
+      peak_lane.resize(most);
+      peak_phase.resize(most);
+      peak_denominator.resize(most);
+    }
+  }
+};
+
+// Views of a set of coefficient planes of `width` entries each.
+template <int M>
+struct Planes {
+  int width;
+  double* a0;
+  double* ar;  // [k-1][entry]
+  double* ai;
+  double* pr;  // [j][entry]
+  double* pi;
+};
+
+// (A function, not a constructor: Clang 15 does not emit a class template's constructor that
+// only target_clones functions call.)
+template <int M>
+__attribute__((always_inline)) inline Planes<M> PlanesIn(double* storage, int width) {
+  Planes<M> b;
+  b.width = width;
+  b.a0 = storage;
+  b.ar = b.a0 + width;
+  b.ai = b.ar + M * width;
+  b.pr = b.ai + M * width;
+  b.pi = b.pr + (M + 1) * width;
+  return b;
+}
+
+// Step 1: the series a_k = sum_j conj(q_{j+k}) q_j and p = conj(q) of pixels [begin, end);
+// lanes past the end and invalid pixels get a_0 = NaN and are skipped.
+template <int M>
+__attribute__((always_inline)) inline void LoadBlock(const SolvedImage& solved, int64_t begin,
+                                                     int64_t end, const Planes<M>& b) {
+  const int64_t pixels = solved.geometry.pixel_count();
+  const int count = static_cast<int>(end - begin);
+  for (int j = 0; j <= M; ++j) {
+    const double* qr = solved.q_real.data() + j * pixels + begin;
+    const double* qi = solved.q_imag.data() + j * pixels + begin;
+    double* pr = b.pr + j * kRangeBlock;
+    double* pi = b.pi + j * kRangeBlock;
+#pragma omp simd
+    for (int l = 0; l < kRangeBlock; ++l) {
+      pr[l] = l < count ? qr[l] : 0.0;
+      pi[l] = l < count ? -qi[l] : 0.0;
+    }
+  }
+  // a_0 = sum_j |q_j|^2; a_k = sum_j conj(q_{j+k}) q_j = sum_j p_{j+k} conj(p_j).
+  for (int l = 0; l < kRangeBlock; ++l) b.a0[l] = 0.0;
+  for (int j = 0; j <= M; ++j) {
+    const double* yr = b.pr + j * kRangeBlock;
+    const double* yi = b.pi + j * kRangeBlock;
+#pragma omp simd
+    for (int l = 0; l < kRangeBlock; ++l) b.a0[l] += yr[l] * yr[l] + yi[l] * yi[l];
+  }
+  for (int k = 1; k <= M; ++k) {
+    double* re = b.ar + (k - 1) * kRangeBlock;
+    double* im = b.ai + (k - 1) * kRangeBlock;
+    for (int l = 0; l < kRangeBlock; ++l) re[l] = im[l] = 0.0;
+    for (int j = 0; j + k <= M; ++j) {
+      const double* xr = b.pr + (j + k) * kRangeBlock;
+      const double* xi = b.pi + (j + k) * kRangeBlock;
+      const double* yr = b.pr + j * kRangeBlock;
+      const double* yi = b.pi + j * kRangeBlock;
+#pragma omp simd
+      for (int l = 0; l < kRangeBlock; ++l) {
+        re[l] += xr[l] * yr[l] + xi[l] * yi[l];
+        im[l] += xi[l] * yr[l] - xr[l] * yi[l];
+      }
+    }
+  }
+  const uint8_t* flags = solved.flags.data() + begin;
+  for (int l = 0; l < kRangeBlock; ++l) {
+    if (l >= count || (flags[l] & kFlagInvalidInput) != 0) {
+      b.a0[l] = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+}
+
+// e^{ix} = cos x + i sin x for |x| <= kMaxRotation, by Horner in x^2.
+__attribute__((always_inline)) inline void SmallRotation(Vd x, Vd& c, Vd& s) {
+  const Vd y = -(x * x);
+  c = Splat(1.0 / 87178291200.0);  // 1/14!
+  for (double f : {1.0 / 479001600.0, 1.0 / 3628800.0, 1.0 / 40320.0, 1.0 / 720.0, 1.0 / 24.0,
+                   0.5, 1.0}) {
+    c = c * y + f;
+  }
+  s = Splat(1.0 / 6227020800.0);  // 1/13!
+  for (double f : {1.0 / 39916800.0, 1.0 / 362880.0, 1.0 / 5040.0, 1.0 / 120.0, 1.0 / 6.0}) {
+    s = s * y + f;
+  }
+  s = x + x * (s * y);
+}
+
+// The candidates c..c+7: e^{i phi} at phi = (their bin's phase) + x, |x| <= h.
+struct Units {
+  Vd re, im;
+};
+__attribute__((always_inline)) inline Units UnitsAt(const RangeScratch& s, int c, Vd x) {
+  Vd cx, sx;
+  SmallRotation(x, cx, sx);
+  const Vd cr = Load(&s.center_re[c]), ci = Load(&s.center_im[c]);
+  return {cr * cx - ci * sx, ci * cx + cr * sx};
+}
+
+// |p(z)|^2 by Horner, p_j = conj(q_j), of the candidates c..c+7.
+template <int M>
+__attribute__((always_inline)) inline Vd NormOfP(const Planes<M>& b, int c, Units z) {
+  const int w = b.width;
+  Vd vr = Load(&b.pr[M * w + c]), vi = Load(&b.pi[M * w + c]);
+  for (int j = M - 1; j >= 0; --j) {
+    const Vd nr = vr * z.re - vi * z.im + Load(&b.pr[j * w + c]);
+    vi = vr * z.im + vi * z.re + Load(&b.pi[j * w + c]);
+    vr = nr;
+  }
+  return vr * vr + vi * vi;
+}
+
+// Step 3: RefineMinimum of range.cc for every candidate of the batch, eight at a time, then
+// its phase and |p|^2 there appended to the block's peaks.
+template <int M>
+__attribute__((always_inline)) inline void RefineBatch(const RangeTables& t, RangeScratch& s) {
+  const int count = s.count;
+  const Planes<M> b = PlanesIn<M>(s.coefficients.data(), kBatch);
+  const Vd h = Splat(t.h);
+  const Vd zero = Splat(0.0);
+  for (int c = 0; c < count; c += kLanes) {  // past count: stale lanes, results unused
+    Vd offset = zero;
+    Vm active = zero == zero, converged = zero != zero;
+    for (int step = 0; step < kNewtonSteps && Any(active); ++step) {
+      const Units z = UnitsAt(s, c, offset);
+      // The series' first and second derivatives (EvaluateDenominatorSeries).
+      Vd wr = z.re, wi = z.im, first = zero, second = zero;
+      for (int k = 1; k <= M; ++k) {
+        const Vd are = Load(&b.ar[(k - 1) * kBatch + c]), aim = Load(&b.ai[(k - 1) * kBatch + c]);
+        const Vd tr = are * wr - aim * wi, ti = are * wi + aim * wr;
+        first -= (2.0 * k) * ti;
+        second -= (2.0 * k * k) * tr;
+        const Vd nr = wr * z.re - wi * z.im;
+        wi = wr * z.im + wi * z.re;
+        wr = nr;
+      }
+      const Vd delta = -first / second;
+      const Vd moved = offset + delta;
+      const Vm stepping = active & (second > zero);
+      const Vm inside = Abs(moved) <= h;
+      const Vm done = Abs(delta) < kPhaseTolerance;
+      offset = Select(stepping, moved, offset);
+      converged |= stepping & inside & done;
+      active = stepping & inside & ~done;
+    }
+    // Unless Newton converged: its phase if it moved, stayed within the bin and went down;
+    // else the vertex of the parabola through the three grid values.
+    const Vm inside = Abs(offset) <= h;
+    const Vd lower = NormOfP<M>(b, c, UnitsAt(s, c, Select(inside, offset, zero)));
+    const Vd left = Load(&s.left[c]), middle = Load(&s.middle[c]), right = Load(&s.right[c]);
+    const Vm accept = converged | ((offset != zero) & inside & (lower <= middle));
+    const Vd curvature = left - 2.0 * middle + right;
+    Vd vertex = Select(curvature > zero, 0.5 * (left - right) / curvature, zero);
+    vertex = Select(vertex < -1.0, Splat(-1.0), Select(vertex > 1.0, Splat(1.0), vertex));
+    const Vd x = Select(accept, offset, vertex * h);
+    Store(&s.peak_denominator[s.peaks + c], NormOfP<M>(b, c, UnitsAt(s, c, x)));
+    Store(&s.peak_phase[s.peaks + c], Load(&s.center_phase[c]) + x);
+  }
+  // Plain loops in the clones: Clang 15 emits no library template that only they instantiate.
+  for (int c = 0; c < count; ++c) s.peak_lane[s.peaks + c] = s.lane[c];
+  s.peaks += count;
+  s.count = 0;
+}
+
+// Step 2: the grid of lane l (vectorized over phases) and its local minima (r[n] < r[n-1] and
+// r[n] <= r[n+1], cyclically, as MeseFirstPeakFromGrid), added to the batch.
+template <int M>
+__attribute__((always_inline)) inline void SearchLane(const RangeTables& t, const Planes<M>& b,
+                                                      int l, RangeScratch& s) {
+  double are[M], aim[M];
+  for (int k = 0; k < M; ++k) {
+    are[k] = b.ar[k * kRangeBlock + l];
+    aim[k] = b.ai[k * kRangeBlock + l];
+  }
+  const double a0 = b.a0[l];
+  double* grid = s.grid.data();
+  const int stride = t.stride;
+#pragma omp simd
+  for (int i = 0; i < stride; ++i) {
+    double r = a0;
+    for (int k = 0; k < M; ++k) r += are[k] * t.c2[k * stride + i] + aim[k] * t.s2[k * stride + i];
+    grid[i] = r;
+  }
+  const int bins = t.bins;
+  uint8_t* minimum = s.minimum.data();
+#pragma omp simd
+  for (int n = 0; n < bins; ++n) {
+    minimum[n] = static_cast<uint8_t>((grid[n + 1] < grid[n]) & (grid[n + 1] <= grid[n + 2]));
+  }
+  const Planes<M> batch = PlanesIn<M>(s.coefficients.data(), kBatch);
+  for (int w = 0; w < bins; w += 8) {
+    uint64_t word;  // one byte per bin, 0 or 1
+    std::memcpy(&word, minimum + w, sizeof(word));
+    while (word != 0) {
+      const int n = w + __builtin_ctzll(word) / 8;
+      word &= word - 1;
+      const int c = s.count++;
+      s.lane[c] = l;
+      s.left[c] = grid[n];
+      s.middle[c] = grid[n + 1];
+      s.right[c] = grid[n + 2];
+      s.center_phase[c] = n * t.h;
+      s.center_re[c] = t.cos_n[n];
+      s.center_im[c] = t.sin_n[n];
+      for (int k = 0; k < M; ++k) {
+        batch.ar[k * kBatch + c] = are[k];
+        batch.ai[k * kBatch + c] = aim[k];
+      }
+      for (int j = 0; j <= M; ++j) {
+        batch.pr[j * kBatch + c] = b.pr[j * kRangeBlock + l];
+        batch.pi[j * kBatch + c] = b.pi[j * kRangeBlock + l];
+      }
+      if (s.count == kBatch) RefineBatch<M>(t, s);
+    }
+  }
+}
+
+// Step 4: per lane, the first peak whose density is at least threshold x the highest.
+__attribute__((always_inline)) inline void ChoosePeaks(double threshold, RangeScratch& s) {
+  for (int l = 0; l < kRangeBlock; ++l) {
+    s.smallest[l] = std::numeric_limits<double>::infinity();
+    s.first[l] = std::numeric_limits<double>::quiet_NaN();
+  }
+  for (int c = 0; c < s.peaks; ++c) {
+    if (!(s.peak_denominator[c] > 0.0)) continue;  // only underflow: D would be infinite
+    double& smallest = s.smallest[s.peak_lane[c]];
+    smallest = std::min(smallest, s.peak_denominator[c]);
+  }
+  for (int c = 0; c < s.peaks; ++c) {
+    const double d = s.peak_denominator[c];
+    const int l = s.peak_lane[c];
+    if (!(d > 0.0) || !(threshold * d <= s.smallest[l])) continue;
+    const double phase = OrderingPhase(s.peak_phase[c]);
+    if (!(phase >= s.first[l])) s.first[l] = phase;
+  }
+}
+
+template <int M>
+__attribute__((always_inline)) inline void RangeBlockFixed(
+    const SolvedImage& solved, const RangeTables& t, const RangeOptions& options, int64_t begin,
+    int64_t end, std::span<float> range_m, std::span<uint8_t> flags, RangeScratch& s) {
+  s.Reserve(M, t);
+  const Planes<M> b = PlanesIn<M>(s.planes.data(), kRangeBlock);
+  LoadBlock<M>(solved, begin, end, b);
+  s.count = 0;
+  s.peaks = 0;
+  for (int l = 0; l < end - begin; ++l) {
+    if (!std::isnan(b.a0[l])) SearchLane<M>(t, b, l, s);
+  }
+  if (s.count > 0) RefineBatch<M>(t, s);
+  ChoosePeaks(options.threshold, s);
+  for (int64_t p = begin; p < end; ++p) {
+    range_m[p] = kNaNf;
+    if (!solved.valid(p)) continue;
+    const double phase = s.first[p - begin];
+    if (std::isnan(phase)) {
+      flags[p] |= kFlagNoReturn;
+    } else {
+      range_m[p] = static_cast<float>(PhaseToRange(phase, options.base_frequency_hz));
+    }
+  }
+}
+
+// One clone per instruction set, chosen at load time; each holds one kernel per m.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void RangeBlock(
+    const SolvedImage& solved, const RangeTables& t, const RangeOptions& options, int64_t begin,
+    int64_t end, std::span<float> range_m, std::span<uint8_t> flags, RangeScratch& s) {
+  switch (solved.order) {
+#define TRANSIENT_RANGE_CASE(M) \
+  case M:                       \
+    return RangeBlockFixed<M>(solved, t, options, begin, end, range_m, flags, s);
+    TRANSIENT_RANGE_CASE(1)
+    TRANSIENT_RANGE_CASE(2)
+    TRANSIENT_RANGE_CASE(3)
+    TRANSIENT_RANGE_CASE(4)
+    TRANSIENT_RANGE_CASE(5)
+    TRANSIENT_RANGE_CASE(6)
+    TRANSIENT_RANGE_CASE(7)
+    TRANSIENT_RANGE_CASE(8)
+    TRANSIENT_RANGE_CASE(9)
+    TRANSIENT_RANGE_CASE(10)
+    TRANSIENT_RANGE_CASE(11)
+    TRANSIENT_RANGE_CASE(12)
+    TRANSIENT_RANGE_CASE(13)
+    TRANSIENT_RANGE_CASE(14)
+    TRANSIENT_RANGE_CASE(15)
+    TRANSIENT_RANGE_CASE(16)
+#undef TRANSIENT_RANGE_CASE
+  }
+  assert(false && "order outside 1..kMaxOrder");
+}
+
+}  // namespace
+
+void MeseRange(const SolvedImage& solved, const RangeOptions& options, std::span<float> range_m,
+               std::span<uint8_t> flags) {
+  const int64_t pixels = solved.geometry.pixel_count();
+  assert(range_m.size() == static_cast<size_t>(pixels) && flags.size() == range_m.size());
+  const int m = solved.order;
+  const int bins = options.SearchBins(m);
+  if (kTwoPi / bins > kMaxRotation) {
+    // A coarse grid (a search_bins chosen by hand): the per-pixel search of the reference.
+    internal::ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {
+      internal::MeseRangePixels(solved, options, begin, end, range_m, flags);
+    });
+    return;
+  }
+  const RangeTables tables = MakeRangeTables(m, bins);
+  internal::ParallelBlocks(
+      pixels,
+      [&](int64_t begin, int64_t end) {
+        thread_local RangeScratch scratch;
+        RangeBlock(solved, tables, options, begin, end, range_m, flags, scratch);
+      },
+      kRangeBlock);
+}
+
+}  // namespace transient::optimized
