@@ -1,10 +1,9 @@
-// The optimized kernels: the same products as reference_kernels.cc, computed with
+// The optimized kernels: the same products as reference_kernels.cc (the solve is in
+// optimized_solve.cc, the MESE range in optimized_range.cc), computed with
 // - the MESE denominator written as a real cosine series a_0 + sum_k (alpha_k cos k phi +
 //   beta_k sin k phi) whose coefficients are computed once per pixel and whose cos/sin tables
 //   are shared by all pixels (thesis eq. 8.4), so all pixels x all phases is a small matrix
 //   product followed by a reciprocal, vectorized over pixels;
-// - Levinson's positive-definiteness test instead of a dense eigen-solve for pixels that need
-//   no biasing;
 // - OpenMP threads over blocks of pixels for everything, including the per-pixel solvers
 //   (Pisarenko, cumulative, bounds) that stay scalar.
 // The series is summed in double: near a sharp peak it cancels to ~eps^2/(m+1)^2 of a_0, which
@@ -143,14 +142,6 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
 }
 
 }  // namespace
-
-void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage* solved) {
-  assert(moments.Validate().ok() && options.Validate().ok());
-  internal::PrepareSolved(moments, solved);
-  internal::ParallelBlocks(moments.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
-    internal::SolvePixels(moments, options, /*quick_bias_check=*/true, begin, end, solved);
-  });
-}
 
 PisarenkoImage EstimatePisarenko(const SolvedImage& solved) {
   PisarenkoImage result = internal::AllocatePisarenko(solved);

@@ -21,12 +21,9 @@
 #include <vector>
 
 #include "kernels_internal.h"
+#include "kernels_simd.h"
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/range.h"
-
-// The vector helpers below pass GCC's generic vectors by value; they are always inlined within
-// this file, so the calling convention that -Wpsabi warns about never applies.
-#pragma GCC diagnostic ignored "-Wpsabi"  // GCC and Clang both know this name
 
 namespace transient::optimized {
 namespace {
@@ -41,30 +38,16 @@ constexpr double kPhaseTolerance = 1e-10;
 // polynomial to x^14 within 1e-23 (0.25^15 / 15!).
 constexpr double kMaxRotation = 0.25;
 
-// Eight candidates at a time in GCC's generic vectors, which every clone lowers to its own
-// instructions (one AVX-512 register, two AVX2 ones, four SSE2 ones).
-constexpr int kLanes = 8;
-using Vd = double __attribute__((vector_size(kLanes * sizeof(double))));
-using Vm = int64_t __attribute__((vector_size(kLanes * sizeof(int64_t))));  // a comparison
-
-__attribute__((always_inline)) inline Vd Load(const double* p) {
-  Vd v;
-  std::memcpy(&v, p, sizeof(v));
-  return v;
-}
-__attribute__((always_inline)) inline void Store(double* p, Vd v) { std::memcpy(p, &v, sizeof(v)); }
-__attribute__((always_inline)) inline Vd Splat(double x) { return Vd{} + x; }
-__attribute__((always_inline)) inline Vd Select(Vm mask, Vd yes, Vd no) {
-  return reinterpret_cast<Vd>((mask & reinterpret_cast<Vm>(yes)) | (~mask & reinterpret_cast<Vm>(no)));
-}
-__attribute__((always_inline)) inline Vd Abs(Vd x) {
-  return reinterpret_cast<Vd>(reinterpret_cast<Vm>(x) & (Vm{} + 0x7fffffffffffffff));
-}
-__attribute__((always_inline)) inline bool Any(Vm mask) {
-  int64_t any = 0;
-  for (int i = 0; i < kLanes; ++i) any |= mask[i];
-  return any != 0;
-}
+// Eight candidates at a time (kernels_simd.h).
+using simd::Abs;
+using simd::Any;
+using simd::kLanes;
+using simd::Load;
+using simd::Select;
+using simd::Splat;
+using simd::Store;
+using simd::Vd;
+using simd::Vm;
 
 // The grid: phases phi_i = (i - 1) h for i = 0..bins+1 (one phase beyond each end, so that
 // the search for minima needs no wrap), h = 2 pi / bins, in rows per k = 1..m:

@@ -1,0 +1,160 @@
+// The optimized solve: validation, the biasing check and Levinson's algorithm (thesis alg. 8.1)
+// for eight pixels at a time, one SIMD lane per pixel, with the results of the reference's
+// per-pixel loop (reference_kernels.cc, levinson.cc) bit for bit:
+// - every lane runs the same IEEE operations in the same order as Levinson() on std::complex
+//   (a complex product is (ac - bd, ad + bc)), and this file is compiled without contraction
+//   into fused multiply-adds (-ffp-contract=off, reconstruct/CMakeLists.txt), which the
+//   reference, built for baseline x86-64, never uses either;
+// - Levinson's positive-definiteness test at c_0 (1 - eps) proves lambda_min > eps c_0 for
+//   most pixels, which then need no biasing; the others (and every pixel when c_0 is
+//   estimated) take the reference's per-pixel path, which runs the dense eigen-solve.
+#include <cassert>
+#include <cstdint>
+
+#include "kernels_internal.h"
+#include "kernels_simd.h"
+#include "transient/reconstruct/kernels.h"
+
+namespace transient::optimized {
+namespace {
+
+using simd::Finite;
+using simd::kLanes;
+using simd::Splat;
+using simd::True;
+using simd::Vd;
+using simd::Vm;
+
+// Levinson() of levinson.cc in every lane: q = C(c)^{-1} e_0 and the lanes where every
+// reflection coefficient has |d| < 1 and q_0 is finite (Levinson() returns true).
+template <int M>
+__attribute__((always_inline)) inline Vm Levinson(const Vd* cr, const Vd* ci, Vd* qr, Vd* qi) {
+  const Vd zero = Splat(0.0), one = Splat(1.0);
+  Vm ok = (cr[0] > zero) & Finite(cr[0]);
+  qr[0] = one / cr[0];
+  qi[0] = zero;
+  for (int l = 1; l <= M; ++l) {
+    Vd dr = zero, di = zero;  // d = sum_k q_k c_{l-k}
+    for (int k = 0; k < l; ++k) {
+      dr = dr + (qr[k] * cr[l - k] - qi[k] * ci[l - k]);
+      di = di + (qr[k] * ci[l - k] + qi[k] * cr[l - k]);
+    }
+    const Vd norm = dr * dr + di * di;
+    ok &= norm < one;  // also false for NaN
+    const Vd scale = one / (one - norm);
+    // q_k := scale (q_k - d conj(q_{l-k})) for k = 0..l, with q_l = 0 and conj(q_l) taken as 0
+    // for k = 0 (the reversed vector of levinson.cc), from the old q: reverse order in pairs.
+    Vd nr[M + 1], ni[M + 1];
+    for (int k = 0; k <= l; ++k) {
+      const Vd rr = k == 0 ? zero : qr[l - k];
+      const Vd ri = k == 0 ? zero : -qi[l - k];
+      const Vd ar = k < l ? qr[k] : zero;
+      const Vd ai = k < l ? qi[k] : zero;
+      nr[k] = scale * (ar - (dr * rr - di * ri));
+      ni[k] = scale * (ai - (dr * ri + di * rr));
+    }
+    for (int k = 0; k <= l; ++k) {
+      qr[k] = nr[k];
+      qi[k] = ni[k];
+    }
+  }
+  qi[0] = zero;
+  return ok & Finite(qr[0]);
+}
+
+// Pixels [p, p + kLanes) of a kMeasured solve.
+template <int M>
+__attribute__((always_inline)) inline void SolveLanes(const MomentImage& moments,
+                                                      const SolveOptions& options, int64_t p,
+                                                      SolvedImage* solved) {
+  const int64_t pixels = moments.geometry.pixel_count();
+  Vd cr[M + 1], ci[M + 1];
+  for (int j = 0; j <= M; ++j) {
+    const float* re = moments.real_plane(j) + p;
+    const float* im = moments.imag_plane(j) + p;
+    for (int i = 0; i < kLanes; ++i) {
+      cr[j][i] = re[i];
+      ci[j][i] = j == 0 ? 0.0 : im[i];
+    }
+  }
+  Vm valid = True();
+  if (moments.valid.size() != 0) {  // not empty(): Clang 15 would not emit its iterator here
+    for (int i = 0; i < kLanes; ++i) valid[i] = moments.valid[p + i] != 0 ? -1 : 0;
+  }
+  for (int j = 0; j <= M; ++j) valid &= Finite(cr[j]) & Finite(ci[j]);
+  valid &= cr[0] > Splat(0.0);
+  // The check of reference_kernels.cc's ClearlyAboveBound: Levinson at c_0 (1 - eps).
+  Vd shifted[M + 1], qr[M + 1], qi[M + 1];
+  shifted[0] = cr[0] * (1.0 - options.bias_epsilon);
+  for (int j = 1; j <= M; ++j) shifted[j] = cr[j];
+  const Vm clear = Levinson<M>(shifted, ci, qr, qi);
+  const Vm solved_ok = Levinson<M>(cr, ci, qr, qi);
+  for (int i = 0; i < kLanes; ++i) {
+    const int64_t pixel = p + i;
+    if (valid[i] != 0 && clear[i] == 0) {
+      // Needs the eigen-solve of biasing (or is invalid after it): the per-pixel path.
+      internal::SolvePixels(moments, options, /*quick_bias_check=*/false, pixel, pixel + 1,
+                            solved);
+      continue;
+    }
+    const bool ok = valid[i] != 0 && solved_ok[i] != 0;
+    if (!ok) solved->flags[pixel] |= kFlagInvalidInput;
+    for (int j = 0; j <= M; ++j) {
+      const int64_t at = j * pixels + pixel;
+      solved->c_real[at] = ok ? cr[j][i] : kNaN;
+      solved->c_imag[at] = ok ? ci[j][i] : kNaN;
+      solved->q_real[at] = ok ? qr[j][i] : kNaN;
+      solved->q_imag[at] = ok ? qi[j][i] : kNaN;
+    }
+  }
+}
+
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void SolveBlock(
+    const MomentImage& moments, const SolveOptions& options, int64_t begin, int64_t end,
+    SolvedImage* solved) {
+  int64_t p = begin;
+  for (; p + kLanes <= end; p += kLanes) {
+    switch (moments.order) {
+#define TRANSIENT_SOLVE_CASE(M)                           \
+  case M:                                                 \
+    SolveLanes<M>(moments, options, p, solved);           \
+    break;
+      TRANSIENT_SOLVE_CASE(1)
+      TRANSIENT_SOLVE_CASE(2)
+      TRANSIENT_SOLVE_CASE(3)
+      TRANSIENT_SOLVE_CASE(4)
+      TRANSIENT_SOLVE_CASE(5)
+      TRANSIENT_SOLVE_CASE(6)
+      TRANSIENT_SOLVE_CASE(7)
+      TRANSIENT_SOLVE_CASE(8)
+      TRANSIENT_SOLVE_CASE(9)
+      TRANSIENT_SOLVE_CASE(10)
+      TRANSIENT_SOLVE_CASE(11)
+      TRANSIENT_SOLVE_CASE(12)
+      TRANSIENT_SOLVE_CASE(13)
+      TRANSIENT_SOLVE_CASE(14)
+      TRANSIENT_SOLVE_CASE(15)
+      TRANSIENT_SOLVE_CASE(16)
+#undef TRANSIENT_SOLVE_CASE
+    }
+  }
+  // The last pixels of the block, fewer than a vector.
+  internal::SolvePixels(moments, options, /*quick_bias_check=*/true, p, end, solved);
+}
+
+}  // namespace
+
+void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage* solved) {
+  assert(moments.Validate().ok() && options.Validate().ok());
+  internal::PrepareSolved(moments, solved);
+  const bool lanes = options.zeroth == ZerothMoment::kMeasured;
+  internal::ParallelBlocks(moments.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
+    if (lanes) {
+      SolveBlock(moments, options, begin, end, solved);
+    } else {
+      internal::SolvePixels(moments, options, /*quick_bias_check=*/true, begin, end, solved);
+    }
+  });
+}
+
+}  // namespace transient::optimized
