@@ -1,9 +1,11 @@
 // Eight doubles at a time in GCC's generic vectors (also understood by Clang), for the
 // optimized kernels' per-pixel work that the auto-vectorizer does not take on (Newton steps
-// with per-lane masks, Levinson's recursion). Every target_clones clone lowers them to its own
-// instructions: one AVX-512 register, two AVX2 ones, four SSE2 ones. Include this header only
-// from kernel sources, and call these helpers only from always_inline code: they pass vectors
-// by value, whose calling convention differs between instruction sets (hence -Wpsabi off).
+// with per-lane masks, Levinson's recursion). A kernel is compiled once per instruction set
+// (TRANSIENT_SIMD_VARIANTS below): one AVX-512 register, two AVX2 ones or four SSE2 ones per
+// vector. Not with target_clones: GCC 12 lowers a clone's generic vector comparisons for the
+// baseline instruction set, one scalar comparison per lane. Include this header only from
+// kernel sources, and call these helpers only from always_inline code: they pass vectors by
+// value, whose calling convention differs between instruction sets (hence -Wpsabi off).
 #pragma once
 
 #include <cstdint>
@@ -44,4 +46,38 @@ __attribute__((always_inline)) inline bool Any(Vm mask) {
   return any != 0;
 }
 
+// The instruction sets a kernel is compiled for, best first.
+enum class Level { kX86_64_V4, kX86_64_V3, kBaseline };
+
+// The best level this CPU runs (x86-64-v4: AVX-512 F/BW/CD/DQ/VL; v3: AVX2, FMA, BMI1/2).
+inline Level CpuLevel() {
+  static const Level level = [] {
+    __builtin_cpu_init();
+    const bool v3 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+                    __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2");
+    const bool v4 = v3 && __builtin_cpu_supports("avx512f") &&
+                    __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512cd") &&
+                    __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+    return v4 ? Level::kX86_64_V4 : v3 ? Level::kX86_64_V3 : Level::kBaseline;
+  }();
+  return level;
+}
+
 }  // namespace transient::simd
+
+// Defines NAME(PARAMS) calling the always_inline BODY(ARGS) compiled for each Level, chosen
+// at the first call by simd::CpuLevel().
+#define TRANSIENT_SIMD_VARIANTS(NAME, BODY, PARAMS, ARGS)                 \
+  __attribute__((target("arch=x86-64-v4"))) void NAME##V4 PARAMS { BODY ARGS; } \
+  __attribute__((target("arch=x86-64-v3"))) void NAME##V3 PARAMS { BODY ARGS; } \
+  void NAME##Baseline PARAMS { BODY ARGS; }                                 \
+  void NAME PARAMS {                                                        \
+    switch (::transient::simd::CpuLevel()) {                                \
+      case ::transient::simd::Level::kX86_64_V4:                            \
+        return NAME##V4 ARGS;                                               \
+      case ::transient::simd::Level::kX86_64_V3:                            \
+        return NAME##V3 ARGS;                                               \
+      case ::transient::simd::Level::kBaseline:                             \
+        return NAME##Baseline ARGS;                                         \
+    }                                                                       \
+  }

@@ -55,7 +55,7 @@ using simd::Vm;
 // a_0 + 2 Re sum_k a_k e^{ik phi} is a_0 + sum_k Re(a_k) c2 + Im(a_k) s2.
 struct RangeTables {
   int bins = 0;
-  int stride = 0;  // bins + 2, rounded up to a whole vector
+  int stride = 0;  // bins + 2, rounded up to a whole vector, plus one vector
   double h = 0.0;
   std::vector<double> c2, s2;
   std::vector<double> cos_n, sin_n;  // e^{i n h}, n = 0..bins-1
@@ -64,7 +64,7 @@ struct RangeTables {
 RangeTables MakeRangeTables(int m, int bins) {
   RangeTables t;
   t.bins = bins;
-  t.stride = (bins + 2 + 7) / 8 * 8;
+  t.stride = (bins + 2 + 7) / 8 * 8 + 8;  // whole vectors, and one more for the last search
   t.h = kTwoPi / bins;
   t.c2.assign(static_cast<size_t>(t.stride) * m, 0.0);
   t.s2.assign(t.c2.size(), 0.0);
@@ -84,16 +84,16 @@ RangeTables MakeRangeTables(int m, int bins) {
   return t;
 }
 
-// Candidates refined together: one batch of their coefficients stays in L1/L2.
+// Candidates refined together.
 constexpr int kBatch = 256;
 
 // Per-thread working memory, reused from block to block.
 struct RangeScratch {
-  // Planes of kRangeBlock lanes, then (per candidate) planes of kBatch: a_0, Re and Im of a_k
-  // for k = 1..m, Re and Im of p_j = conj(q_j) for j = 0..m.
-  std::vector<double> planes, coefficients;
+  // Planes of kRangeBlock lanes: a_0, Re and Im of a_k for k = 1..m, Re and Im of
+  // p_j = conj(q_j) for j = 0..m.
+  std::vector<double> planes;
   std::vector<double> grid;
-  std::vector<uint8_t> minimum;
+  std::vector<uint8_t> minimum;  // bins, rounded up to 8 with zeros
   // The batch: grid minima, one per lane of the refinement.
   int count = 0;
   std::vector<int32_t> lane;
@@ -109,13 +109,12 @@ struct RangeScratch {
   void Reserve(int m, const RangeTables& t) {
     const size_t planes_per_pixel = static_cast<size_t>(1 + 2 * m + 2 * (m + 1));
     planes.resize(planes_per_pixel * kRangeBlock);
-    coefficients.resize(planes_per_pixel * kBatch + kLanes);
     grid.resize(t.stride);
     minimum.assign((t.bins + 7) / 8 * 8, 0);
     for (auto* v : {&left, &middle, &right, &center_phase, &center_re, &center_im}) {
       v->resize(kBatch + kLanes);
     }
-    lane.resize(kBatch);
+    lane.resize(kBatch + kLanes);
     // A lane has at most bins/2 grid minima: two neighbours cannot both be one.
     const size_t most = static_cast<size_t>(kRangeBlock) * (t.bins / 2 + 1) + kBatch;
     if (peak_lane.size() < most) {
@@ -227,14 +226,37 @@ __attribute__((always_inline)) inline Units UnitsAt(const RangeScratch& s, int c
   return {cr * cx - ci * sx, ci * cx + cr * sx};
 }
 
-// |p(z)|^2 by Horner, p_j = conj(q_j), of the candidates c..c+7.
+// The coefficients of eight candidates, gathered once from their pixels' planes and kept in
+// registers through every Newton step.
 template <int M>
-__attribute__((always_inline)) inline Vd NormOfP(const Planes<M>& b, int c, Units z) {
-  const int w = b.width;
-  Vd vr = Load(&b.pr[M * w + c]), vi = Load(&b.pi[M * w + c]);
+struct Coefficients {
+  Vd ar[M], ai[M];         // a_k, k = 1..m
+  Vd pr[M + 1], pi[M + 1];  // p_j = conj(q_j)
+};
+
+template <int M>
+__attribute__((always_inline)) inline void Gather(const Planes<M>& b, const int32_t* lanes,
+                                                  Coefficients<M>& g) {
+  for (int i = 0; i < kLanes; ++i) {
+    const int l = lanes[i];
+    for (int k = 0; k < M; ++k) {
+      g.ar[k][i] = b.ar[k * kRangeBlock + l];
+      g.ai[k][i] = b.ai[k * kRangeBlock + l];
+    }
+    for (int j = 0; j <= M; ++j) {
+      g.pr[j][i] = b.pr[j * kRangeBlock + l];
+      g.pi[j][i] = b.pi[j * kRangeBlock + l];
+    }
+  }
+}
+
+// |p(z)|^2 by Horner.
+template <int M>
+__attribute__((always_inline)) inline Vd NormOfP(const Coefficients<M>& g, Units z) {
+  Vd vr = g.pr[M], vi = g.pi[M];
   for (int j = M - 1; j >= 0; --j) {
-    const Vd nr = vr * z.re - vi * z.im + Load(&b.pr[j * w + c]);
-    vi = vr * z.im + vi * z.re + Load(&b.pi[j * w + c]);
+    const Vd nr = vr * z.re - vi * z.im + g.pr[j];
+    vi = vr * z.im + vi * z.re + g.pi[j];
     vr = nr;
   }
   return vr * vr + vi * vi;
@@ -243,12 +265,15 @@ __attribute__((always_inline)) inline Vd NormOfP(const Planes<M>& b, int c, Unit
 // Step 3: RefineMinimum of range.cc for every candidate of the batch, eight at a time, then
 // its phase and |p|^2 there appended to the block's peaks.
 template <int M>
-__attribute__((always_inline)) inline void RefineBatch(const RangeTables& t, RangeScratch& s) {
+__attribute__((always_inline)) inline void RefineBatch(const RangeTables& t, const Planes<M>& b,
+                                                       RangeScratch& s) {
   const int count = s.count;
-  const Planes<M> b = PlanesIn<M>(s.coefficients.data(), kBatch);
+  for (int c = count; c < count + kLanes; ++c) s.lane[c] = s.lane[0];  // stale: unused
   const Vd h = Splat(t.h);
   const Vd zero = Splat(0.0);
-  for (int c = 0; c < count; c += kLanes) {  // past count: stale lanes, results unused
+  for (int c = 0; c < count; c += kLanes) {
+    Coefficients<M> g{};  // (zeros first: Gather fills it lane by lane)
+    Gather<M>(b, &s.lane[c], g);
     Vd offset = zero;
     Vm active = zero == zero, converged = zero != zero;
     for (int step = 0; step < kNewtonSteps && Any(active); ++step) {
@@ -256,7 +281,7 @@ __attribute__((always_inline)) inline void RefineBatch(const RangeTables& t, Ran
       // The series' first and second derivatives (EvaluateDenominatorSeries).
       Vd wr = z.re, wi = z.im, first = zero, second = zero;
       for (int k = 1; k <= M; ++k) {
-        const Vd are = Load(&b.ar[(k - 1) * kBatch + c]), aim = Load(&b.ai[(k - 1) * kBatch + c]);
+        const Vd are = g.ar[k - 1], aim = g.ai[k - 1];
         const Vd tr = are * wr - aim * wi, ti = are * wi + aim * wr;
         first -= (2.0 * k) * ti;
         second -= (2.0 * k * k) * tr;
@@ -276,14 +301,14 @@ __attribute__((always_inline)) inline void RefineBatch(const RangeTables& t, Ran
     // Unless Newton converged: its phase if it moved, stayed within the bin and went down;
     // else the vertex of the parabola through the three grid values.
     const Vm inside = Abs(offset) <= h;
-    const Vd lower = NormOfP<M>(b, c, UnitsAt(s, c, Select(inside, offset, zero)));
+    const Vd lower = NormOfP<M>(g, UnitsAt(s, c, Select(inside, offset, zero)));
     const Vd left = Load(&s.left[c]), middle = Load(&s.middle[c]), right = Load(&s.right[c]);
     const Vm accept = converged | ((offset != zero) & inside & (lower <= middle));
     const Vd curvature = left - 2.0 * middle + right;
     Vd vertex = Select(curvature > zero, 0.5 * (left - right) / curvature, zero);
     vertex = Select(vertex < -1.0, Splat(-1.0), Select(vertex > 1.0, Splat(1.0), vertex));
     const Vd x = Select(accept, offset, vertex * h);
-    Store(&s.peak_denominator[s.peaks + c], NormOfP<M>(b, c, UnitsAt(s, c, x)));
+    Store(&s.peak_denominator[s.peaks + c], NormOfP<M>(g, UnitsAt(s, c, x)));
     Store(&s.peak_phase[s.peaks + c], Load(&s.center_phase[c]) + x);
   }
   // Plain loops in the clones: Clang 15 emits no library template that only they instantiate.
@@ -305,25 +330,28 @@ __attribute__((always_inline)) inline void SearchLane(const RangeTables& t, cons
   const double a0 = b.a0[l];
   double* grid = s.grid.data();
   const int stride = t.stride;
-#pragma omp simd
-  for (int i = 0; i < stride; ++i) {
-    double r = a0;
-    for (int k = 0; k < M; ++k) r += are[k] * t.c2[k * stride + i] + aim[k] * t.s2[k * stride + i];
-    grid[i] = r;
+  const double* c2 = t.c2.data();
+  const double* s2 = t.s2.data();
+  for (int i = 0; i < stride; i += kLanes) {
+    Vd r = Splat(a0);
+    for (int k = 0; k < M; ++k) {
+      r += are[k] * Load(c2 + k * stride + i) + aim[k] * Load(s2 + k * stride + i);
+    }
+    Store(grid + i, r);
   }
+  // Minima as one byte per bin (a loop the compiler vectorizes), then read eight bins at once.
   const int bins = t.bins;
   uint8_t* minimum = s.minimum.data();
 #pragma omp simd
   for (int n = 0; n < bins; ++n) {
     minimum[n] = static_cast<uint8_t>((grid[n + 1] < grid[n]) & (grid[n + 1] <= grid[n + 2]));
   }
-  const Planes<M> batch = PlanesIn<M>(s.coefficients.data(), kBatch);
   for (int w = 0; w < bins; w += 8) {
-    uint64_t word;  // one byte per bin, 0 or 1
-    std::memcpy(&word, minimum + w, sizeof(word));
-    while (word != 0) {
-      const int n = w + __builtin_ctzll(word) / 8;
-      word &= word - 1;
+    uint64_t bits;  // bin w + i is a minimum iff byte i is 1; bytes past bins are 0
+    std::memcpy(&bits, minimum + w, sizeof(bits));
+    while (bits != 0) {
+      const int n = w + __builtin_ctzll(bits) / 8;
+      bits &= bits - 1;
       const int c = s.count++;
       s.lane[c] = l;
       s.left[c] = grid[n];
@@ -332,15 +360,7 @@ __attribute__((always_inline)) inline void SearchLane(const RangeTables& t, cons
       s.center_phase[c] = n * t.h;
       s.center_re[c] = t.cos_n[n];
       s.center_im[c] = t.sin_n[n];
-      for (int k = 0; k < M; ++k) {
-        batch.ar[k * kBatch + c] = are[k];
-        batch.ai[k * kBatch + c] = aim[k];
-      }
-      for (int j = 0; j <= M; ++j) {
-        batch.pr[j * kBatch + c] = b.pr[j * kRangeBlock + l];
-        batch.pi[j * kBatch + c] = b.pi[j * kRangeBlock + l];
-      }
-      if (s.count == kBatch) RefineBatch<M>(t, s);
+      if (s.count == kBatch) RefineBatch<M>(t, b, s);
     }
   }
 }
@@ -377,7 +397,7 @@ __attribute__((always_inline)) inline void RangeBlockFixed(
   for (int l = 0; l < end - begin; ++l) {
     if (!std::isnan(b.a0[l])) SearchLane<M>(t, b, l, s);
   }
-  if (s.count > 0) RefineBatch<M>(t, s);
+  if (s.count > 0) RefineBatch<M>(t, b, s);
   ChoosePeaks(options.threshold, s);
   for (int64_t p = begin; p < end; ++p) {
     range_m[p] = kNaNf;
@@ -391,8 +411,8 @@ __attribute__((always_inline)) inline void RangeBlockFixed(
   }
 }
 
-// One clone per instruction set, chosen at load time; each holds one kernel per m.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void RangeBlock(
+// Every m, as one function per instruction set.
+__attribute__((always_inline)) inline void RangeBlockAnyOrder(
     const SolvedImage& solved, const RangeTables& t, const RangeOptions& options, int64_t begin,
     int64_t end, std::span<float> range_m, std::span<uint8_t> flags, RangeScratch& s) {
   switch (solved.order) {
@@ -419,6 +439,12 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
   }
   assert(false && "order outside 1..kMaxOrder");
 }
+
+TRANSIENT_SIMD_VARIANTS(RangeBlock, RangeBlockAnyOrder,
+                        (const SolvedImage& solved, const RangeTables& t,
+                         const RangeOptions& options, int64_t begin, int64_t end,
+                         std::span<float> range_m, std::span<uint8_t> flags, RangeScratch& s),
+                        (solved, t, options, begin, end, range_m, flags, s))
 
 }  // namespace
 

@@ -109,9 +109,10 @@ __attribute__((always_inline)) inline void SolveLanes(const MomentImage& moments
   }
 }
 
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void SolveBlock(
-    const MomentImage& moments, const SolveOptions& options, int64_t begin, int64_t end,
-    SolvedImage* solved) {
+__attribute__((always_inline)) inline void SolveBlockAnyOrder(const MomentImage& moments,
+                                                              const SolveOptions& options,
+                                                              int64_t begin, int64_t end,
+                                                              SolvedImage* solved) {
   int64_t p = begin;
   for (; p + kLanes <= end; p += kLanes) {
     switch (moments.order) {
@@ -141,6 +142,11 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
   // The last pixels of the block, fewer than a vector.
   internal::SolvePixels(moments, options, /*quick_bias_check=*/true, p, end, solved);
 }
+
+TRANSIENT_SIMD_VARIANTS(SolveBlock, SolveBlockAnyOrder,
+                        (const MomentImage& moments, const SolveOptions& options, int64_t begin,
+                         int64_t end, SolvedImage* solved),
+                        (moments, options, begin, end, solved))
 
 }  // namespace
 
