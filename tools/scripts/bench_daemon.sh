@@ -37,3 +37,11 @@ run_case "163x120 m=3 realtime" "sim:mirrors" "range,slices" --bins 64
 run_case "163x120 m=3 fast camera" "sim:mirrors?pace=fast" "range,slices" --bins 64
 run_case "640x480 m=4 fast camera" "sim:mirrors?width=640&height=480&m=4&pace=fast" \
   "range,amplitude"
+# The daemon alone at the resolutions of real cameras: a recorded capture replayed as fast as
+# the daemon takes it (the simulator is not on the cores while the daemon runs).
+"$build/tools/transient/transient" sim mirrors --out "$work/vga.h5" --frames 30 --width 640 \
+  --height 480 --m 4 --deflate 0 > /dev/null
+run_case "640x480 m=4 fast replay" "replay:$work/vga.h5?loop=1&pace=fast" "range"
+"$build/tools/transient/transient" sim mirrors --out "$work/kinect.h5" --frames 30 \
+  --set camera=kinect2 --deflate 0 > /dev/null
+run_case "512x424 Kinect v2 fast replay" "replay:$work/kinect.h5?loop=1&pace=fast" "depth"
