@@ -66,7 +66,13 @@ inline Level CpuLevel() {
 }  // namespace transient::simd
 
 // Defines NAME(PARAMS) calling the always_inline BODY(ARGS) compiled for each Level, chosen
-// at the first call by simd::CpuLevel().
+// at the first call by simd::CpuLevel(). Under the sanitizers (TRANSIENT_SIMD_BASELINE_ONLY,
+// set by CMake) only the baseline: the same source, a third of the compile time; the release
+// tests run the vector instruction sets.
+#if defined(TRANSIENT_SIMD_BASELINE_ONLY)
+#define TRANSIENT_SIMD_VARIANTS(NAME, BODY, PARAMS, ARGS) \
+  void NAME PARAMS { BODY ARGS; }
+#else
 #define TRANSIENT_SIMD_VARIANTS(NAME, BODY, PARAMS, ARGS)                 \
   __attribute__((target("arch=x86-64-v4"))) void NAME##V4 PARAMS { BODY ARGS; } \
   __attribute__((target("arch=x86-64-v3"))) void NAME##V3 PARAMS { BODY ARGS; } \
@@ -81,3 +87,4 @@ inline Level CpuLevel() {
         return NAME##Baseline ARGS;                                         \
     }                                                                       \
   }
+#endif

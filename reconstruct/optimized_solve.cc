@@ -114,7 +114,9 @@ __attribute__((always_inline)) inline void SolveBlockAnyOrder(const MomentImage&
                                                               int64_t begin, int64_t end,
                                                               SolvedImage* solved) {
   int64_t p = begin;
-  for (; p + kLanes <= end; p += kLanes) {
+  // Orders up to 8 in lanes (each order compiled costs compile time, growing as m^2); above,
+  // the per-pixel path.
+  for (; moments.order <= 8 && p + kLanes <= end; p += kLanes) {
     switch (moments.order) {
 #define TRANSIENT_SOLVE_CASE(M)                           \
   case M:                                                 \
@@ -128,14 +130,6 @@ __attribute__((always_inline)) inline void SolveBlockAnyOrder(const MomentImage&
       TRANSIENT_SOLVE_CASE(6)
       TRANSIENT_SOLVE_CASE(7)
       TRANSIENT_SOLVE_CASE(8)
-      TRANSIENT_SOLVE_CASE(9)
-      TRANSIENT_SOLVE_CASE(10)
-      TRANSIENT_SOLVE_CASE(11)
-      TRANSIENT_SOLVE_CASE(12)
-      TRANSIENT_SOLVE_CASE(13)
-      TRANSIENT_SOLVE_CASE(14)
-      TRANSIENT_SOLVE_CASE(15)
-      TRANSIENT_SOLVE_CASE(16)
 #undef TRANSIENT_SOLVE_CASE
     }
   }
