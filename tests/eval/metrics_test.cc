@@ -70,6 +70,7 @@ TEST(SummarizeErrors, KnownMeanRmseAndPercentile) {
   EXPECT_DOUBLE_EQ(summary.mean, 0.5);                    // ten pairs (-odd, +even) of +1
   EXPECT_NEAR(summary.rmse, std::sqrt(2870.0 / 20), 1e-12);  // sum of squares 1..20 = 2870
   EXPECT_DOUBLE_EQ(summary.p95_abs, 19.05);  // type 7: position 0.95 * 19 = 18.05 -> 19 + 0.05
+  EXPECT_EQ(summary.within_10, 10);          // -1, 2, ..., 10: |e| <= 10 counts, 11 does not
 }
 
 TEST(SummarizeErrors, NothingToSummarizeIsNaN) {

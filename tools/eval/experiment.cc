@@ -345,6 +345,7 @@ ResultRow Evaluate(TruthKind truth, int k, MethodKind method, int order, bool no
     row.emd_median_ns = Percentile(std::span<double>(emd_ns), 50.0);
   }
   row.range_error_mm = SummarizeErrors(errors_mm);
+  row.within_1cm_share = static_cast<double>(row.range_error_mm.within_10) / std::max(row.trials, 1);
   row.time_per_pixel_us = seconds / std::max(row.trials, 1) * 1e6;
   return row;
 }

@@ -85,6 +85,7 @@ struct ResultRow {
   double emd_mean_ns = 0.0;      // EMD / true c_0 over trials with a reconstruction
   double emd_median_ns = 0.0;
   ErrorSummary range_error_mm;   // first-return range error over trials with a return
+  double within_1cm_share = 0.0;  // trials whose first return is within 1 cm of the truth's
   double time_per_pixel_us = 0.0;
 };
 

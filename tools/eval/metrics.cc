@@ -69,6 +69,7 @@ ErrorSummary SummarizeErrors(std::span<const double> errors) {
     sum += e;
     squares += e * e;
     magnitudes.push_back(std::abs(e));
+    if (std::abs(e) <= 10.0) ++summary.within_10;
   }
   summary.mean = sum / errors.size();
   summary.rmse = std::sqrt(squares / errors.size());

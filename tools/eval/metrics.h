@@ -37,6 +37,7 @@ double WrapSymmetric(double x, double period);
 struct ErrorSummary {
   int count = 0;
   double mean = 0.0, rmse = 0.0, p95_abs = 0.0;
+  int within_10 = 0;  // errors with |e| <= 10 (1 cm when the errors are in mm)
 };
 ErrorSummary SummarizeErrors(std::span<const double> errors);
 
