@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -101,12 +103,35 @@ TEST(Bounds, AreSharpCanonicalMeasuresTouchThem) {
     for (double phi : {0.5, 2.0, 4.4}) {
       std::vector<double> phases = {phi}, lower(1), upper(1);
       ASSERT_TRUE(PoissonBounds(c, r, phases, lower, upper));
-      double smallest = 1e300, largest = -1e300;
-      for (int k = 0; k < 20000; ++k) {
-        const double value = CanonicalMeasure(c, kTwoPi * k / 20000).PoissonSmoothed(r, phi);
-        smallest = std::min(smallest, value);
-        largest = std::max(largest, value);
+      // The smoothed value as a function of the prescribed atom's phase: its extremes from a
+      // sweep of 1000 phases, each refined by golden-section search within its neighbours
+      // (as close as a sweep of 20000 phases came, at a twentieth of the evaluations).
+      const auto smoothed = [&](double atom) {
+        return CanonicalMeasure(c, atom).PoissonSmoothed(r, phi);
+      };
+      constexpr int kSweep = 1000;
+      const double step = kTwoPi / kSweep;
+      int lowest = 0, highest = 0;
+      std::vector<double> sweep(kSweep);
+      for (int k = 0; k < kSweep; ++k) {
+        sweep[k] = smoothed(step * k);
+        if (sweep[k] < sweep[lowest]) lowest = k;
+        if (sweep[k] > sweep[highest]) highest = k;
       }
+      const auto refine = [&](int k, double sign) {  // the extreme of sign * value near k
+        double a = step * (k - 1), b = step * (k + 1);
+        const double golden = (std::sqrt(5.0) - 1.0) / 2.0;
+        for (int i = 0; i < 40; ++i) {
+          const double x1 = b - golden * (b - a), x2 = a + golden * (b - a);
+          if (sign * smoothed(x1) > sign * smoothed(x2)) {
+            b = x2;
+          } else {
+            a = x1;
+          }
+        }
+        return std::max(sign * sweep[k], sign * smoothed(0.5 * (a + b))) * sign;
+      };
+      const double smallest = refine(lowest, -1.0), largest = refine(highest, 1.0);
       const double scale = upper[0] - lower[0];
       EXPECT_NEAR(largest, upper[0], 1e-4 * scale) << "m=" << m << " phi=" << phi;
       EXPECT_NEAR(smallest, lower[0], 1e-4 * scale) << "m=" << m << " phi=" << phi;
