@@ -22,6 +22,10 @@ constexpr double kNegligibleWeight = 1e-10;
 
 using Residual = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMaxMoments, 1>;
 using Weights = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxOrder, 1>;
+// The least-squares systems of the weights and of the Gauss-Newton steps share one type, so
+// that one QR decomposition is compiled (Eigen's are the slowest templates to compile here).
+using LeastSquaresMatrix =
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 2 * kMaxMoments, 2 * kMaxOrder>;
 
 // Real and imaginary parts of sum_l w_l exp(i j phi_l) - b_j, j = 0..m.
 Residual MomentResidual(const Residual& b, int n, const std::array<double, kMaxOrder>& phases,
@@ -45,8 +49,7 @@ void PolishReturns(const Residual& b, int n, std::array<double, kMaxOrder>& phas
   const int rows = static_cast<int>(b.size());
   Residual residual = MomentResidual(b, n, phases, w);
   for (int step = 0; step < kSteps; ++step) {
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 2 * kMaxMoments, 2 * kMaxOrder>
-        jacobian(rows, 2 * n);
+    LeastSquaresMatrix jacobian(rows, 2 * n);
     for (int j = 0; j < rows / 2; ++j) {
       for (int l = 0; l < n; ++l) {
         const Complex x = std::polar(1.0, j * phases[l]);
@@ -105,8 +108,7 @@ bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate) {
 
   // Real weights from the Vandermonde system against (c_0 - lambda_min, c_1, ..., c_m)
   // (thesis alg. 8.2, step 3), solved in the least-squares sense over all m+1 equations.
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 2 * kMaxMoments, kMaxOrder> a(2 * size,
-                                                                                         n);
+  LeastSquaresMatrix a(2 * size, n);
   Residual b(2 * size);
   for (int j = 0; j <= m; ++j) {
     const Complex target = (j == 0) ? Complex(c0 - lambda_min) : c[j];
@@ -118,7 +120,7 @@ bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate) {
       a(2 * j + 1, l) = x.imag();
     }
   }
-  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxOrder, 1> w = a.colPivHouseholderQr().solve(b);
+  Weights w = a.colPivHouseholderQr().solve(b);
   PolishReturns(b, n, phases, w);
 
   std::array<int, kMaxOrder> order;
