@@ -1,6 +1,7 @@
 // The products of a solved frame, computed once for everything its consumers asked for.
 #include "transient/reconstruct/frame_products.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -54,7 +55,55 @@ void ReturnsAsDepth(const PisarenkoImage& pisarenko, const CameraInfo& camera,
   }
 }
 
+// A pixel's Pisarenko returns as depths and weights (ReturnsAsDepth), for maps of returns.
+struct ReturnDepths {
+  int order = 0;
+  std::vector<float> depth_m, weight;
+};
+
+// Builds the moment depth maps of `needs` into `out`: of `depth_m`, or of `returns` for specs
+// from_returns (left out when `returns` is null: the caller refused those). Builders come from
+// `builders`, or from a set made for this frame.
+void BuildMomentDepthMaps(const ProductNeeds& needs, ImageGeometry geometry,
+                          std::span<const float> depth_m, const ReturnDepths* returns,
+                          MomentDepthBuilders* builders, FrameProducts* out) {
+  MomentDepthBuilders this_frame;
+  if (builders == nullptr) builders = &this_frame;
+  builders->Retain(needs.moment_depth);
+  for (const MomentDepthSpec& spec : needs.moment_depth) {
+    if (spec.from_returns && returns == nullptr) continue;
+    MomentDepthMapBuilder* builder = builders->For(geometry, spec);
+    if (builder == nullptr) continue;  // an invalid spec: its consumers get no map
+    auto map = std::make_shared<MomentDepthMap>();
+    const absl::Status status =
+        spec.from_returns
+            ? builder->BuildFromReturns(returns->order, returns->depth_m, returns->weight,
+                                        map.get())
+            : builder->Build(depth_m, map.get());
+    if (status.ok()) out->moment_depth[spec] = std::move(map);
+  }
+}
+
 }  // namespace
+
+void MomentDepthBuilders::Retain(const std::vector<MomentDepthSpec>& specs) {
+  std::erase_if(builders_, [&](const auto& entry) {
+    return std::find(specs.begin(), specs.end(), entry.first) == specs.end();
+  });
+}
+
+MomentDepthMapBuilder* MomentDepthBuilders::For(ImageGeometry geometry,
+                                                const MomentDepthSpec& spec) {
+  auto it = builders_.find(spec);
+  if (it == builders_.end() || (it->second.has_value() && it->second->geometry() != geometry)) {
+    absl::StatusOr<MomentDepthMapBuilder> created =
+        MomentDepthMapBuilder::Create(geometry, spec.MapOptions());
+    std::optional<MomentDepthMapBuilder> builder;
+    if (created.ok()) builder.emplace(*std::move(created));
+    it = builders_.insert_or_assign(spec, std::move(builder)).first;
+  }
+  return it->second.has_value() ? &*it->second : nullptr;
+}
 
 void MergeNoReturn(std::span<const uint8_t> solved_flags, std::span<const uint8_t> range_flags,
                    std::span<const float> range_m, std::span<uint8_t> out) {
@@ -70,7 +119,8 @@ std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const Solve
                                                      const CameraInfo& camera,
                                                      const ProductOptions& options,
                                                      const ProductNeeds& needs,
-                                                     uint64_t sequence) {
+                                                     uint64_t sequence,
+                                                     MomentDepthBuilders* builders) {
   auto out = std::make_shared<FrameProducts>();
   const SolvedImage& s = *solved;
   const size_t pixels = static_cast<size_t>(s.geometry.pixel_count());
@@ -134,34 +184,21 @@ std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const Solve
       CumulativeSlices(s, phases, images.cumulative);
     }
   }
-  if (!needs.moment_depth.empty()) {
-    std::vector<float> return_depth, return_weight;
-    if (moments_of_returns) {
-      ReturnsAsDepth(*out->pisarenko, camera, options.base_frequency_hz, options.threshold,
-                     &return_depth, &return_weight);
-    }
-    for (const MomentDepthSpec& spec : needs.moment_depth) {
-      absl::StatusOr<MomentDepthMapBuilder> builder =
-          MomentDepthMapBuilder::Create(s.geometry, spec.MapOptions());
-      if (!builder.ok()) continue;  // an invalid spec: its consumers get no map
-      auto map = std::make_shared<MomentDepthMap>();
-      const absl::Status status =
-          spec.from_returns
-              ? builder->BuildFromReturns(out->pisarenko->order, return_depth, return_weight,
-                                          map.get())
-              : builder->Build(out->depth_m, map.get());
-      if (status.ok()) out->moment_depth[spec] = std::move(map);
-    }
+  ReturnDepths returns;
+  if (moments_of_returns) {
+    returns.order = out->pisarenko->order;
+    ReturnsAsDepth(*out->pisarenko, camera, options.base_frequency_hz, options.threshold,
+                   &returns.depth_m, &returns.weight);
   }
+  BuildMomentDepthMaps(needs, s.geometry, out->depth_m, moments_of_returns ? &returns : nullptr,
+                       builders, out.get());
   out->solved = std::move(solved);
   return out;
 }
 
-std::shared_ptr<const FrameProducts> ComputeUnwrappedProducts(const MomentImage& moments,
-                                                              const CameraInfo& camera,
-                                                              const UnwrapOptions& unwrap,
-                                                              const ProductNeeds& needs,
-                                                              uint64_t sequence) {
+std::shared_ptr<const FrameProducts> ComputeUnwrappedProducts(
+    const MomentImage& moments, const CameraInfo& camera, const UnwrapOptions& unwrap,
+    const ProductNeeds& needs, uint64_t sequence, MomentDepthBuilders* builders) {
   auto out = std::make_shared<FrameProducts>();
   out->sequence = sequence;
   out->geometry = moments.geometry;
@@ -179,22 +216,14 @@ std::shared_ptr<const FrameProducts> ComputeUnwrappedProducts(const MomentImage&
     DepthFromRange(moments.geometry, camera.intrinsics, out->range_m, out->depth_m);
   }
   if (needs.amplitude) out->amplitude = std::move(amplitude);
-  for (const MomentDepthSpec& spec : needs.moment_depth) {
-    if (spec.from_returns) continue;  // needs the Pisarenko returns: refused by the caller
-    absl::StatusOr<MomentDepthMapBuilder> builder =
-        MomentDepthMapBuilder::Create(moments.geometry, spec.MapOptions());
-    if (!builder.ok()) continue;
-    auto map = std::make_shared<MomentDepthMap>();
-    if (builder->Build(out->depth_m, map.get()).ok()) out->moment_depth[spec] = std::move(map);
-  }
+  // Maps of returns need the Pisarenko returns: refused by the caller, left out here.
+  BuildMomentDepthMaps(needs, moments.geometry, out->depth_m, nullptr, builders, out.get());
   return out;
 }
 
-std::shared_ptr<const FrameProducts> ComputeDepthProducts(std::span<const float> depth_m,
-                                                          std::span<const float> amplitude,
-                                                          const CameraInfo& camera,
-                                                          const ProductNeeds& needs,
-                                                          uint64_t sequence) {
+std::shared_ptr<const FrameProducts> ComputeDepthProducts(
+    std::span<const float> depth_m, std::span<const float> amplitude, const CameraInfo& camera,
+    const ProductNeeds& needs, uint64_t sequence, MomentDepthBuilders* builders) {
   const ImageGeometry geometry = camera.geometry;
   const size_t pixels = static_cast<size_t>(geometry.pixel_count());
   assert(depth_m.size() == pixels);
@@ -213,14 +242,8 @@ std::shared_ptr<const FrameProducts> ComputeDepthProducts(std::span<const float>
   out->range_m.resize(pixels);
   RangeFromDepth(geometry, camera.intrinsics, out->depth_m, out->range_m);
   if (needs.amplitude && !amplitude.empty()) out->amplitude.assign(amplitude.begin(), amplitude.end());
-  for (const MomentDepthSpec& spec : needs.moment_depth) {
-    if (spec.from_returns) continue;  // no returns without the moment reconstruction
-    absl::StatusOr<MomentDepthMapBuilder> builder =
-        MomentDepthMapBuilder::Create(geometry, spec.MapOptions());
-    if (!builder.ok()) continue;
-    auto map = std::make_shared<MomentDepthMap>();
-    if (builder->Build(out->depth_m, map.get()).ok()) out->moment_depth[spec] = std::move(map);
-  }
+  // No returns without the moment reconstruction: maps of returns are left out.
+  BuildMomentDepthMaps(needs, geometry, out->depth_m, nullptr, builders, out.get());
   return out;
 }
 

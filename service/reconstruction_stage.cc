@@ -41,7 +41,7 @@ absl::StatusOr<std::shared_ptr<const FrameProducts>> ReconstructionStage::RunDep
       schedule.depth_amplitude ? std::span<const float>(cycle.frames[1].pixels)
                                : std::span<const float>();
   return ComputeDepthProducts(cycle.frames[0].pixels, amplitude, camera_, inputs.needs,
-                              sequence_++);
+                              sequence_++, &moment_depth_builders_);
 }
 
 std::shared_ptr<SolvedImage> ReconstructionStage::RecycledSolvedImage() {
@@ -91,14 +91,16 @@ absl::StatusOr<std::shared_ptr<const FrameProducts>> ReconstructionStage::Run(
     // unwrapping; the subscriptions that need more were refused (PlanStream).
     const UnwrapOptions unwrap{.base_frequency_hz = schedule.base_frequency_hz,
                                .harmonics = schedule.MeasuredHarmonics()};
-    return ComputeUnwrappedProducts(moments_, camera_, unwrap, inputs.needs, sequence_++);
+    return ComputeUnwrappedProducts(moments_, camera_, unwrap, inputs.needs, sequence_++,
+                                    &moment_depth_builders_);
   }
   std::shared_ptr<SolvedImage> solved = RecycledSolvedImage();
   pipeline_->Solve(moments_, solved.get());
   const ProductOptions options{.base_frequency_hz = cycle.schedule->options().base_frequency_hz,
                                .range_method = config.range_method,
                                .threshold = config.threshold};
-  return ComputeProducts(std::move(solved), camera_, options, inputs.needs, sequence_++);
+  return ComputeProducts(std::move(solved), camera_, options, inputs.needs, sequence_++,
+                         &moment_depth_builders_);
 }
 
 }  // namespace transient::service

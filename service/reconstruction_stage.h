@@ -2,7 +2,8 @@
 // steps 2-4): the frame pipeline (measure, solve) rebuilt when the schedule or the settings
 // change, and the products every subscriber asked for, computed once into an immutable frame.
 // The per-pixel solved state is recycled once no published frame holds it any more: at
-// 640x480 a fresh one cost ~50 MB of page faults per frame.
+// 640x480 a fresh one cost ~50 MB of page faults per frame; so are the moment depth maps'
+// builders.
 #pragma once
 
 #include <cstdint>
@@ -56,6 +57,8 @@ class ReconstructionStage {
   DemodulationReport report_;
   uint64_t sequence_ = 0;
   std::vector<std::shared_ptr<SolvedImage>> solved_pool_;
+  // Kept across frames: their VGA-sized buffers are allocated once per spec, not per frame.
+  MomentDepthBuilders moment_depth_builders_;
 };
 
 }  // namespace transient::service

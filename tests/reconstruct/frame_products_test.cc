@@ -132,6 +132,42 @@ TEST(FrameProducts, SlicesAreComputedOncePerPhaseListAndKind) {
   }
 }
 
+TEST(FrameProducts, MomentDepthBuildersAreKeptAcrossFramesAndDroppedWithTheirSpecs) {
+  const auto solved = MakeSolved(3);
+  const MomentDepthSpec of_depth{.near_m = 0.0, .far_m = 8.0, .sigma_px = 0.0};
+  const MomentDepthSpec of_returns{.near_m = 0.0, .far_m = 8.0, .sigma_px = 0.0,
+                                   .from_returns = true};
+  const MomentDepthSpec invalid{.near_m = 0.0, .far_m = 8.0, .sigma_px = 100.0};  // wider than 6x4
+  const ProductNeeds needs{.moment_depth = {of_depth, of_returns, invalid}};
+  const ProductOptions options{.base_frequency_hz = kFrequencyHz};
+  MomentDepthBuilders builders;
+  const auto first = ComputeProducts(solved, Camera(), options, needs, 0, &builders);
+  EXPECT_EQ(builders.size(), 3u);  // the invalid spec's refusal is kept too
+  MomentDepthMapBuilder* kept = builders.For(kGeometry, of_depth);
+  ASSERT_NE(kept, nullptr);
+  EXPECT_EQ(builders.For(kGeometry, invalid), nullptr);
+  const auto second = ComputeProducts(solved, Camera(), options, needs, 1, &builders);
+  EXPECT_EQ(builders.For(kGeometry, of_depth), kept) << "the same builder, frame after frame";
+  // Kept builders give the maps that builders made for the frame give.
+  const auto fresh = ComputeProducts(solved, Camera(), options, needs);
+  for (const auto* products : {first.get(), second.get()}) {
+    ASSERT_EQ(products->moment_depth.size(), 2u) << "no map for the invalid spec";
+    for (const MomentDepthSpec& spec : {of_depth, of_returns}) {
+      EXPECT_EQ(products->moment_depth.at(spec)->quantized, fresh->moment_depth.at(spec)->quantized);
+    }
+  }
+  // Another geometry gets another builder; specs no longer asked for lose theirs.
+  const ImageGeometry other{.width = 3, .height = 2};
+  MomentDepthMapBuilder* resized = builders.For(other, of_depth);
+  ASSERT_NE(resized, nullptr);
+  EXPECT_EQ(resized->geometry(), other);
+  (void)ComputeProducts(solved, Camera(), options, ProductNeeds{.moment_depth = {of_returns}}, 2,
+                        &builders);
+  EXPECT_EQ(builders.size(), 1u);
+  (void)ComputeProducts(solved, Camera(), options, ProductNeeds{.c0 = true}, 3, &builders);
+  EXPECT_EQ(builders.size(), 0u);
+}
+
 TEST(DepthProducts, TheGivenDepthWithItsRangeAndFlagsWhereThereIsNone) {
   const CameraInfo camera = Camera();
   const size_t n = static_cast<size_t>(kGeometry.pixel_count());

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "transient/reconstruct/camera_model.h"
@@ -88,28 +89,46 @@ struct FrameProducts {
   std::map<MomentDepthSpec, std::shared_ptr<const MomentDepthMap>> moment_depth;
 };
 
+// Moment depth map builders kept from frame to frame, one per spec, so that their buffers
+// (five planes of the image, before and after the filter: 12 MB at 640x480) are allocated
+// once, not with every frame. Builders of specs no longer asked for are dropped, and one of
+// another geometry is replaced. For one thread at a time (the reconstruction's).
+class MomentDepthBuilders {
+ public:
+  // Keeps only the builders of `specs` (the specs of this frame).
+  void Retain(const std::vector<MomentDepthSpec>& specs);
+  // The builder of `spec` for `geometry`, created at its first frame; nullptr for a spec that
+  // MomentDepthMapBuilder::Create refuses.
+  MomentDepthMapBuilder* For(ImageGeometry geometry, const MomentDepthSpec& spec);
+  size_t size() const { return builders_.size(); }
+
+ private:
+  std::map<MomentDepthSpec, std::optional<MomentDepthMapBuilder>> builders_;  // nullopt: refused
+};
+
 // Computes `needs` from the solved state with the kernels of reconstructor.h. `camera` gives
 // the intrinsics for depth (Z = range * PixelRay(x, y).z; lens distortion not removed). Moment
 // depth maps are built from the depth, or from the Pisarenko returns converted to depth the
 // same way (returns weaker than the threshold times the pixel's strongest are left out); a spec
-// whose map cannot be built (an invalid spec) is left out of the frame.
+// whose map cannot be built (an invalid spec) is left out of the frame. The maps' builders come
+// from `builders` when given (kept by the caller across frames), else they serve this frame only.
 std::shared_ptr<const FrameProducts> ComputeProducts(std::shared_ptr<const SolvedImage> solved,
                                                      const CameraInfo& camera,
                                                      const ProductOptions& options,
                                                      const ProductNeeds& needs,
-                                                     uint64_t sequence = 0);
+                                                     uint64_t sequence = 0,
+                                                     MomentDepthBuilders* builders = nullptr);
 
 // The products of a schedule whose harmonics are not all of 1..m (phase_unwrapping.h): range
 // (with confidence, kFlagAmbiguous and kFlagLowAmplitude), depth, amplitude (the mean |c_j| of
 // the measured harmonics), flags and moment depth maps of the depth. Needs that only the moment
 // reconstruction has (c_0, Pisarenko, slices, maps of returns) are the caller's to refuse
 // (ScheduleOptions::MissingHarmonicsText); they are left empty here. `unwrap` must pass
-// Validate() and `moments` have order >= its highest harmonic (asserted).
-std::shared_ptr<const FrameProducts> ComputeUnwrappedProducts(const MomentImage& moments,
-                                                              const CameraInfo& camera,
-                                                              const UnwrapOptions& unwrap,
-                                                              const ProductNeeds& needs,
-                                                              uint64_t sequence = 0);
+// Validate() and `moments` have order >= its highest harmonic (asserted). `builders` as for
+// ComputeProducts.
+std::shared_ptr<const FrameProducts> ComputeUnwrappedProducts(
+    const MomentImage& moments, const CameraInfo& camera, const UnwrapOptions& unwrap,
+    const ProductNeeds& needs, uint64_t sequence = 0, MomentDepthBuilders* builders = nullptr);
 
 // The products of a depth camera's frame (SamplingScheme::kDepth): nothing demodulated or
 // solved. depth_m is `depth_m` as given where it is finite and > 0, NaN elsewhere, with
@@ -119,11 +138,10 @@ std::shared_ptr<const FrameProducts> ComputeUnwrappedProducts(const MomentImage&
 // the depth (specs from_returns are the caller's to refuse; left out here). order and
 // base_frequency_hz are 0, `solved` is null. Range, depth and flags are always computed (they
 // cost one pass); `depth_m` and a non-empty `amplitude` hold pixel_count() values (asserted).
-std::shared_ptr<const FrameProducts> ComputeDepthProducts(std::span<const float> depth_m,
-                                                          std::span<const float> amplitude,
-                                                          const CameraInfo& camera,
-                                                          const ProductNeeds& needs,
-                                                          uint64_t sequence = 0);
+// `builders` as for ComputeProducts.
+std::shared_ptr<const FrameProducts> ComputeDepthProducts(
+    std::span<const float> depth_m, std::span<const float> amplitude, const CameraInfo& camera,
+    const ProductNeeds& needs, uint64_t sequence = 0, MomentDepthBuilders* builders = nullptr);
 
 // Combines the solver's flags with a range estimate's kFlagNoReturn bit, so that a range plane
 // is NaN exactly where the flags say why: the range functions flag every NaN they leave on a
