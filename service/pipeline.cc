@@ -54,6 +54,8 @@ struct Pipeline::Impl {
   void ReconstructLoop();
   void Reconstruct(CycleItem& item);
   void Publish(std::shared_ptr<const PublishedFrame> frame);
+  // The last frame with images Publish sent (the reconstruction thread's alone).
+  std::shared_ptr<const PublishedFrame> newest_frame;
   ProductNeeds CurrentNeeds();
 
   PipelineOptions options;
@@ -321,6 +323,12 @@ ProductNeeds Pipeline::Impl::CurrentNeeds() {
 }
 
 void Pipeline::Impl::Publish(std::shared_ptr<const PublishedFrame> frame) {
+  // Only the newest frame keeps its encodings (EncodedImages): the streams that were sharing
+  // the previous one's have had their turn.
+  if (!frame->announcement) {
+    if (newest_frame != nullptr) newest_frame->encoded.Clear();
+    newest_frame = frame;
+  }
   std::vector<std::shared_ptr<Subscription>> targets;
   {
     absl::MutexLock lock(&mu);

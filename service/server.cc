@@ -8,9 +8,11 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <string>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/moments.h"
@@ -237,6 +239,23 @@ absl::StatusOr<bool> AddFloat(const StreamPlan& plan, const FrameProducts& produ
   Label(kind, index, image);
   image->set_time_of_flight_ns(time_ns);  // 0 (proto3: not sent) for all but slices
   return true;
+}
+
+// What EncodeProducts's result depends on besides the frame: streams whose plans have the same
+// key share one encoding of each frame (PublishedFrame::encoded). Phases as hexadecimal floats:
+// exact.
+std::string EncodingKey(const StreamPlan& plan) {
+  std::string key;
+  for (v1::Product p : plan.products) absl::StrAppend(&key, static_cast<int>(p), ",");
+  absl::StrAppend(&key, "|", plan.rect.x, ",", plan.rect.y, ",", plan.rect.width, ",",
+                  plan.rect.height, "|", static_cast<int>(plan.encoding), "|",
+                  static_cast<int>(plan.compression), "|");
+  for (double phase : plan.request.slice_phases) absl::StrAppend(&key, absl::StrFormat("%a,", phase));
+  const MomentDepthSpec& m = plan.request.moment_depth;
+  absl::StrAppend(&key, "|",
+                  absl::StrFormat("%a,%a,%a,%d,%d", m.near_m, m.far_m, m.sigma_px,
+                                  static_cast<int>(m.format), m.from_returns ? 1 : 0));
+  return key;
 }
 
 // Fills `frame` with the planned products of `products`. false when one is missing.
@@ -576,6 +595,7 @@ class TransientServer::Service final : public v1::Transient::Service {
     absl::Time last_sent = absl::InfinitePast();
     uint64_t missed_pending = 0;
     uint64_t sent = 0;
+    const std::string key = EncodingKey(plan);
     while (!context->IsCancelled()) {
       uint64_t missed = 0;
       std::shared_ptr<const PublishedFrame> published = subscription.Next(kPollInterval, &missed);
@@ -601,9 +621,16 @@ class TransientServer::Service final : public v1::Transient::Service {
         continue;
       }
       if (published->publish - last_sent < plan.min_interval) continue;  // max_rate_hz
-      absl::StatusOr<bool> complete = EncodeProducts(plan, *published->products, &frame);
-      if (!complete.ok()) return complete.status();
-      if (!*complete) continue;  // published before this subscriber's products were computed
+      // Encoded once per plan: the first stream with this plan encodes, the others copy.
+      std::shared_ptr<const v1::Frame> images = published->encoded.Find(key);
+      if (images == nullptr) {
+        auto encoded = std::make_shared<v1::Frame>();
+        absl::StatusOr<bool> complete = EncodeProducts(plan, *published->products, encoded.get());
+        if (!complete.ok()) return complete.status();
+        if (!*complete) continue;  // published before this subscriber's products were computed
+        images = published->encoded.Insert(key, std::move(encoded));
+      }
+      *frame.mutable_images() = images->images();
       frame.set_sequence(published->sequence);
       frame.set_capture_time_s(published->capture_time_s);
       frame.set_missed(missed_pending);

@@ -6,6 +6,36 @@
 
 namespace transient::service {
 
+std::shared_ptr<const v1::Frame> EncodedImages::Find(const std::string& key) const {
+  absl::MutexLock lock(&mu_);
+  for (const auto& [k, images] : images_) {
+    if (k != key) continue;
+    ++hits_;
+    return images;
+  }
+  return nullptr;
+}
+
+std::shared_ptr<const v1::Frame> EncodedImages::Insert(const std::string& key,
+                                                       std::shared_ptr<const v1::Frame> images) {
+  absl::MutexLock lock(&mu_);
+  for (const auto& [k, stored] : images_) {
+    if (k == key) return stored;  // another stream encoded it meanwhile
+  }
+  images_.emplace_back(key, images);
+  return images;
+}
+
+void EncodedImages::Clear() {
+  absl::MutexLock lock(&mu_);
+  images_.clear();
+}
+
+int64_t EncodedImages::hits() const {
+  absl::MutexLock lock(&mu_);
+  return hits_;
+}
+
 const char* SourceStateName(SourceState state) {
   switch (state) {
     case SourceState::kStreaming: return "streaming";

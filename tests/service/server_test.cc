@@ -6,6 +6,7 @@
 #include <csignal>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <thread>
 
 #include "absl/strings/str_cat.h"
@@ -22,6 +23,7 @@
 #include "transient/wire/image_codec.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
+#include "transient/service/subscription.h"
 #include "transient/v1/transient.grpc.pb.h"
 
 namespace transient::service {
@@ -92,6 +94,69 @@ TEST(Server, GetInfoDescribesSensorScheduleAndCalibration) {
   EXPECT_EQ(info.products_size(), 10);
   EXPECT_EQ(info.version(), "test");
   EXPECT_NEAR(info.unambiguous_range_m(), 6.517, 1e-3);
+}
+
+TEST(EncodedImages, SharesAnEncodingUntilCleared) {
+  EncodedImages cache;
+  EXPECT_EQ(cache.Find("range|float16").get(), nullptr);
+  auto first = std::make_shared<v1::Frame>();
+  first->add_images()->set_name("range");
+  EXPECT_EQ(cache.Insert("range|float16", first).get(), first.get());
+  EXPECT_EQ(cache.Find("range|float16").get(), first.get());
+  EXPECT_EQ(cache.Find("range|float32").get(), nullptr) << "another plan's key";
+  // A stream that encoded the same meanwhile gets the stored one.
+  EXPECT_EQ(cache.Insert("range|float16", std::make_shared<v1::Frame>()).get(), first.get());
+  EXPECT_EQ(cache.hits(), 1);
+  // Cleared (a newer frame was published): a stream holding it keeps it, the cache does not.
+  std::weak_ptr<const v1::Frame> stored = first;
+  cache.Clear();
+  EXPECT_EQ(cache.Find("range|float16").get(), nullptr);
+  EXPECT_FALSE(stored.expired()) << "still held by the stream";
+  first.reset();
+  EXPECT_TRUE(stored.expired()) << "the cache held no reference";
+  // Streams racing for the same key all end with the one stored.
+  std::vector<std::shared_ptr<const v1::Frame>> got(8);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < 8; ++i) {
+    threads.emplace_back([&, i] {
+      std::shared_ptr<const v1::Frame> found = cache.Find("depth");
+      got[i] = found != nullptr ? found : cache.Insert("depth", std::make_shared<v1::Frame>());
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  for (const auto& g : got) EXPECT_EQ(g.get(), got[0].get());
+}
+
+TEST(Server, StreamsWithOnePlanShareItsEncodingAndAnotherPlanGetsItsOwn) {
+  Daemon daemon(kSmallSim);
+  v1::StreamRequest half = Request({v1::RANGE, v1::AMPLITUDE});
+  half.set_encoding(v1::FLOAT16);
+  v1::StreamRequest full = Request({v1::RANGE, v1::AMPLITUDE});
+  std::vector<v1::Frame> a, b, c;
+  std::thread second([&] { ASSERT_THAT(Receive(*daemon.Stub(), half, 6, &b), IsOk()); });
+  std::thread third([&] { ASSERT_THAT(Receive(*daemon.Stub(), full, 6, &c), IsOk()); });
+  ASSERT_THAT(Receive(*daemon.Stub(), half, 6, &a), IsOk());
+  second.join();
+  third.join();
+  std::map<uint64_t, const v1::Frame*> by_sequence;
+  for (const v1::Frame& f : b) {
+    if (f.images_size() > 0) by_sequence[f.sequence()] = &f;
+  }
+  int same = 0;
+  for (const v1::Frame& f : a) {
+    auto it = by_sequence.find(f.sequence());
+    if (f.images_size() == 0 || it == by_sequence.end()) continue;
+    ++same;
+    ASSERT_EQ(f.images_size(), it->second->images_size());
+    for (int i = 0; i < f.images_size(); ++i) {
+      EXPECT_EQ(f.images(i).SerializeAsString(), it->second->images(i).SerializeAsString());
+      EXPECT_EQ(f.images(i).encoding(), "16FC1");
+    }
+  }
+  EXPECT_GT(same, 0) << "the two streams shared no frame";
+  for (const v1::Frame& f : c) {
+    for (const v1::Image& image : f.images()) EXPECT_EQ(image.encoding(), "32FC1") << image.name();
+  }
 }
 
 TEST(Server, StreamDeliversTheRequestedProductsInTheRoiAndEncoding) {

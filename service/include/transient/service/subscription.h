@@ -7,6 +7,7 @@
 #include <deque>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/base/thread_annotations.h"
@@ -19,7 +20,32 @@ namespace transient::service {
 enum class SourceState { kStreaming, kReconnecting, kEnded };
 const char* SourceStateName(SourceState state);  // "streaming", "reconnecting", "ended"
 
-// One published transient frame: immutable once shared.
+// A frame's images as encoded for the streams of one plan (products, region, encoding,
+// compression), shared by the subscribers with that plan: a frame is encoded once per plan,
+// however many subscribers take it. Kept while the frame is the newest published (the
+// pipeline clears the previous frame's when it publishes the next), so a frame waiting in a
+// slow subscriber's queue holds no encodings; a stream that comes to it later encodes its own.
+// Thread-safe.
+class EncodedImages {
+ public:
+  // The images stored under `key`, or null.
+  std::shared_ptr<const v1::Frame> Find(const std::string& key) const;
+  // Stores `images` under `key` unless another stream's are there; returns what is stored.
+  std::shared_ptr<const v1::Frame> Insert(const std::string& key,
+                                          std::shared_ptr<const v1::Frame> images);
+  // Drops every encoding (streams that hold one keep it).
+  void Clear();
+  // How many Find calls found images.
+  int64_t hits() const;
+
+ private:
+  mutable absl::Mutex mu_;
+  std::vector<std::pair<std::string, std::shared_ptr<const v1::Frame>>> images_
+      ABSL_GUARDED_BY(mu_);  // one entry per plan: a list beats a map
+  mutable int64_t hits_ ABSL_GUARDED_BY(mu_) = 0;
+};
+
+// One published transient frame: immutable once shared, but for the cache of its encodings.
 struct PublishedFrame {
   uint64_t sequence = 0;
   double capture_time_s = 0.0;  // source timestamp of the cycle's first raw frame
@@ -28,6 +54,7 @@ struct PublishedFrame {
   SourceState state = SourceState::kStreaming;
   bool announcement = false;    // a state change without images
   std::shared_ptr<const FrameProducts> products;  // null for an announcement
+  mutable EncodedImages encoded;                   // filled by the subscribers' streams
 };
 
 // What a subscriber asked the pipeline to compute (encoding and ROI are its own business).
