@@ -19,6 +19,7 @@ std::shared_ptr<const v1::Frame> EncodedImages::Find(const std::string& key) con
 std::shared_ptr<const v1::Frame> EncodedImages::Insert(const std::string& key,
                                                        std::shared_ptr<const v1::Frame> images) {
   absl::MutexLock lock(&mu_);
+  if (cleared_) return images;  // no longer the newest frame: nothing is kept for it
   for (const auto& [k, stored] : images_) {
     if (k == key) return stored;  // another stream encoded it meanwhile
   }
@@ -29,6 +30,7 @@ std::shared_ptr<const v1::Frame> EncodedImages::Insert(const std::string& key,
 void EncodedImages::Clear() {
   absl::MutexLock lock(&mu_);
   images_.clear();
+  cleared_ = true;
 }
 
 int64_t EncodedImages::hits() const {

@@ -114,13 +114,18 @@ TEST(EncodedImages, SharesAnEncodingUntilCleared) {
   EXPECT_FALSE(stored.expired()) << "still held by the stream";
   first.reset();
   EXPECT_TRUE(stored.expired()) << "the cache held no reference";
+  // Nor does it keep what a late stream encodes for the frame.
+  auto late = std::make_shared<v1::Frame>();
+  EXPECT_EQ(cache.Insert("range|float16", late).get(), late.get());
+  EXPECT_EQ(cache.Find("range|float16").get(), nullptr);
+  EncodedImages racing;
   // Streams racing for the same key all end with the one stored.
   std::vector<std::shared_ptr<const v1::Frame>> got(8);
   std::vector<std::thread> threads;
   for (int i = 0; i < 8; ++i) {
     threads.emplace_back([&, i] {
-      std::shared_ptr<const v1::Frame> found = cache.Find("depth");
-      got[i] = found != nullptr ? found : cache.Insert("depth", std::make_shared<v1::Frame>());
+      std::shared_ptr<const v1::Frame> found = racing.Find("depth");
+      got[i] = found != nullptr ? found : racing.Insert("depth", std::make_shared<v1::Frame>());
     });
   }
   for (std::thread& t : threads) t.join();

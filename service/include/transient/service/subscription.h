@@ -30,10 +30,11 @@ class EncodedImages {
  public:
   // The images stored under `key`, or null.
   std::shared_ptr<const v1::Frame> Find(const std::string& key) const;
-  // Stores `images` under `key` unless another stream's are there; returns what is stored.
+  // Stores `images` under `key` unless another stream's are there, and returns what is stored;
+  // after Clear, stores nothing and returns `images`.
   std::shared_ptr<const v1::Frame> Insert(const std::string& key,
                                           std::shared_ptr<const v1::Frame> images);
-  // Drops every encoding (streams that hold one keep it).
+  // Drops every encoding (streams that hold one keep it) and stores no more.
   void Clear();
   // How many Find calls found images.
   int64_t hits() const;
@@ -43,6 +44,7 @@ class EncodedImages {
   std::vector<std::pair<std::string, std::shared_ptr<const v1::Frame>>> images_
       ABSL_GUARDED_BY(mu_);  // one entry per plan: a list beats a map
   mutable int64_t hits_ ABSL_GUARDED_BY(mu_) = 0;
+  bool cleared_ ABSL_GUARDED_BY(mu_) = false;
 };
 
 // One published transient frame: immutable once shared, but for the cache of its encodings.
