@@ -137,7 +137,7 @@ struct Planes {
 };
 
 // (A function, not a constructor: Clang 15 does not emit a class template's constructor that
-// only target_clones functions call.)
+// only functions with a target attribute call.)
 template <int M>
 __attribute__((always_inline)) inline Planes<M> PlanesIn(double* storage, int width) {
   Planes<M> b;

@@ -1,7 +1,7 @@
 // The optimized kernels against the scalar reference, on random valid frames, with the
 // accuracy contract of the optimized kernels: density relative error <= 1e-3 wherever
 // D >= 1e-3 max D, cumulative error <= 1e-4 c_0, range within 0.1 mm, identical flags. Orders
-// 1, 3, 4, 8, 16 and 10 (compiled kernels are zero-padded to 12 there).
+// 1, 3, 4, 8, 16 and 10 (the range kernel zero-pads it to 12, or to 16 under the sanitizers).
 #include "transient/reconstruct/kernels.h"
 
 #include <gtest/gtest.h>
