@@ -297,6 +297,8 @@ absl::Status CaptureWriter::Close() {
     if (!file_.Close().ok() && status.ok()) {
       status = absl::InternalError(absl::StrCat(path_, ": closing failed (disk full?)"));
     }
+    // What was flushed before the failure stays readable (h5::ExtendToRecordedEnd).
+    if (!status.ok()) (void)h5::ExtendToRecordedEnd(path_);
   }
   return status;
 }

@@ -21,6 +21,16 @@ namespace {
 // attempts tell the two apart.
 constexpr unsigned kSwmrReadAttempts = 4;
 
+// HDF5 closes the files still open at exit from an atexit handler. A file whose close failed
+// (its writes failed: a full disk) stays half closed in HDF5 1.10, and that handler then
+// crashes in H5F__close_cb. Every file here is closed by its owner (Id), so the handler has
+// nothing to do: it is not registered. H5dont_atexit works only before HDF5 initialises, hence
+// at static initialisation.
+[[maybe_unused]] const bool kNoHdf5AtExit = [] {
+  H5dont_atexit();
+  return true;
+}();
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -50,6 +60,40 @@ absl::Status Id::Close() {
 void SilenceErrorStack() {
   static std::once_flag once;
   std::call_once(once, [] { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); });
+}
+
+absl::Status ExtendToRecordedEnd(const std::string& path) {
+  // Superblock versions 2 and 3 (HDF5 file format specification 3.0, "Superblock"): signature
+  // (8 bytes), version, size of offsets, size of lengths, file consistency flags, then the base
+  // address, the superblock extension address and the end of file address, little endian.
+  constexpr unsigned char kSignature[8] = {0x89, 'H', 'D', 'F', '\r', '\n', 0x1a, '\n'};
+  constexpr size_t kBaseAddress = 12, kEndOfFileAddress = 28, kRead = 36;
+  unsigned char header[kRead];
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (file == nullptr) return absl::ErrnoToStatus(errno, absl::StrCat(path, ": cannot be read"));
+  const size_t got = std::fread(header, 1, kRead, file);
+  std::fclose(file);
+  if (got < kRead || std::memcmp(header, kSignature, sizeof(kSignature)) != 0 ||
+      (header[8] != 2 && header[8] != 3) || header[9] != 8) {
+    return absl::FailedPreconditionError(
+        absl::StrCat(path, ": not an HDF5 file with a version 2 or 3 superblock"));
+  }
+  auto address = [&](size_t at) {
+    uint64_t value = 0;
+    for (int i = 7; i >= 0; --i) value = (value << 8) | header[at + static_cast<size_t>(i)];
+    return value;
+  };
+  const uint64_t end = address(kBaseAddress) + address(kEndOfFileAddress);
+  std::error_code error;
+  const uint64_t size = std::filesystem::file_size(path, error);
+  if (error) return absl::ErrnoToStatus(error.value(), absl::StrCat(path, ": "));
+  if (size >= end) return absl::OkStatus();
+  std::filesystem::resize_file(path, end, error);
+  if (error) {
+    return absl::ErrnoToStatus(error.value(),
+                               absl::StrCat(path, ": cannot be extended to ", end, " bytes"));
+  }
+  return absl::OkStatus();
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -610,7 +610,7 @@ absl::Status Pipeline::SetConfig(const ReconstructionConfig& config) {
 }
 
 absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
-    const std::string& source_uri, int takes, const std::string& output_path, bool keep_current,
+    const std::string& source_uri, int takes, const std::string& output_name, bool keep_current,
     const std::function<void(int, int)>& on_take, const std::function<bool()>& cancelled) {
   if (takes < 1 || takes > 256) {
     return absl::InvalidArgumentError(absl::StrCat("takes = ", takes, ": expected 1..256"));
@@ -638,9 +638,18 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
     }
     uri = *derived;
   }
-  if (!output_path.empty() && std::filesystem::exists(output_path)) {
-    return absl::AlreadyExistsError(
-        absl::StrCat("output_path: ", output_path, " exists; a calibration never replaces a file"));
+  std::string output_path;
+  if (!output_name.empty()) {
+    absl::StatusOr<std::string> path = NewDataFile("output_path", output_name);
+    if (!path.ok()) return path.status();
+    // A calibration file holds a complex factor (two doubles) per pixel and harmonic.
+    const uint64_t file_bytes = kRecordingOverheadBytes +
+                                static_cast<uint64_t>(impl_->camera.geometry.pixel_count()) *
+                                    static_cast<uint64_t>(schedule->order() + 1) * 16;
+    if (absl::Status room = impl_->options.data_dir->CheckRoom(file_bytes); !room.ok()) {
+      return room;
+    }
+    output_path = *std::move(path);
   }
   const SourceOpener open = impl_->options.open_source
                                 ? impl_->options.open_source
@@ -658,7 +667,7 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
   if (!measured.ok()) return measured.status();
   if (!keep_current) {
     const std::string origin =
-        output_path.empty() ? absl::StrCat("measured from ", uri) : output_path;
+        output_name.empty() ? absl::StrCat("measured from ", uri) : output_name;
     {
       absl::MutexLock lock(&impl_->mu);
       impl_->calibration = std::make_shared<const CalibrationTable>(measured->table);
@@ -669,7 +678,16 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
   return measured;
 }
 
-absl::StatusOr<RecordingStatus> Pipeline::StartRecording(const std::string& path,
+absl::StatusOr<std::string> Pipeline::NewDataFile(absl::string_view field,
+                                                  absl::string_view name) const {
+  if (impl_->options.data_dir == nullptr) {
+    return absl::FailedPreconditionError(
+        absl::StrCat(field, ": this daemon writes no files (it has no data directory)"));
+  }
+  return impl_->options.data_dir->NewFilePath(field, name);
+}
+
+absl::StatusOr<RecordingStatus> Pipeline::StartRecording(const std::string& name,
                                                          uint64_t max_frames, int deflate_level) {
   {
     absl::MutexLock lock(&impl_->mu);
@@ -680,8 +698,21 @@ absl::StatusOr<RecordingStatus> Pipeline::StartRecording(const std::string& path
           " is a recording or a device of its own"));
     }
   }
+  absl::StatusOr<std::string> path = NewDataFile("path", name);
+  if (!path.ok()) return path.status();
+  RecordingTarget target{.name = name, .path = *std::move(path)};
+  if (const DataDir& data_dir = *impl_->options.data_dir; data_dir.quota().max_bytes > 0 ||
+                                                          data_dir.quota().max_files > 0) {
+    const uint64_t frame_bytes =
+        static_cast<uint64_t>(impl_->camera.geometry.pixel_count()) * sizeof(float);
+    if (absl::Status room = data_dir.CheckRoom(kRecordingOverheadBytes + frame_bytes);
+        !room.ok()) {
+      return room;
+    }
+    target.byte_budget = data_dir.BytesLeft();
+  }
   return impl_->recorder.Start(
-      path, max_frames, deflate_level, impl_->started && !impl_->stopping.load(), [this] {
+      target, max_frames, deflate_level, impl_->started && !impl_->stopping.load(), [this] {
         absl::MutexLock lock(&impl_->mu);
         return absl::StrCat(impl_->source_uri, " (", SourceStateName(impl_->state), ")");
       });

@@ -1,7 +1,11 @@
 // The daemon's recordings: requests from the RPC threads, files on the source thread.
 #include "recorder.h"
 
+#include <sys/resource.h>
+#include <sys/statvfs.h>
+
 #include <filesystem>
+#include <limits>
 #include <system_error>
 #include <utility>
 
@@ -10,8 +14,9 @@
 namespace transient::service {
 
 absl::StatusOr<RecordingStatus> Recorder::Start(
-    const std::string& path, uint64_t max_frames, int deflate_level, bool accepting,
+    const RecordingTarget& target, uint64_t max_frames, int deflate_level, bool accepting,
     const std::function<std::string()>& describe_source, absl::Duration timeout) {
+  const std::string& path = target.path;
   if (path.empty()) return absl::InvalidArgumentError("path: expected a file name");
   if (deflate_level < 0 || deflate_level > 9) {
     return absl::InvalidArgumentError(
@@ -26,7 +31,7 @@ absl::StatusOr<RecordingStatus> Recorder::Start(
         absl::StrCat("path: ", path, " exists; a recording never replaces a file"));
   }
   auto pending = std::make_shared<PendingStart>();
-  pending->path = path;
+  pending->target = target;
   pending->max_frames = max_frames;
   pending->deflate_level = deflate_level;
   absl::MutexLock lock(&mu_);
@@ -98,7 +103,7 @@ void Recorder::ServeStart(PendingStart& start, const RawFrame* frame, const Capt
   absl::Status result;
   if (writer_.has_value()) {
     result = absl::FailedPreconditionError(
-        absl::StrCat("a recording to ", writer_->path(), " is in progress"));
+        absl::StrCat("a recording to ", name_, " is in progress"));
   } else if (frame == nullptr || source == nullptr) {
     result = absl::FailedPreconditionError(why);
   } else {
@@ -108,7 +113,7 @@ void Recorder::ServeStart(PendingStart& start, const RawFrame* frame, const Capt
                                        .source_uri = source->uri(),
                                        .saturation_level = frame->saturation_level};
     absl::StatusOr<CaptureWriter> created =
-        CaptureWriter::Create(start.path, source->camera(), source->schedule(), options);
+        CaptureWriter::Create(start.target.path, source->camera(), source->schedule(), options);
     if (created.ok()) {
       absl::StatusOr<GroundTruth> truth = source->GroundTruthAt(frame->config.timestamp_s);
       if (truth.ok()) result = created->SetGroundTruth(*truth);
@@ -119,18 +124,22 @@ void Recorder::ServeStart(PendingStart& start, const RawFrame* frame, const Capt
         limit_raw_frames_ = start.max_frames *  // max_frames <= kMaxRecordingFrames
                             static_cast<uint64_t>(schedule_->raw_frames_per_frame());
         waiting_for_cycle_start_ = true;
+        name_ = start.target.name;
+        byte_budget_ = start.target.byte_budget;
       } else {
         (void)created->Close();
         std::error_code ignored;
-        std::filesystem::remove(start.path, ignored);
+        std::filesystem::remove(start.target.path, ignored);
       }
     } else {
       result = created.status();
     }
   }
-  if (result.ok()) log_(absl::StrCat("recording: started ", start.path));
+  if (result.ok()) log_(absl::StrCat("recording: started ", start.target.path));
   absl::MutexLock lock(&mu_);
-  if (result.ok()) status_ = RecordingStatus{.path = start.path, .active = true, .error = {}};
+  if (result.ok()) {
+    status_ = RecordingStatus{.path = start.target.name, .active = true, .error = {}};
+  }
   start.result = result;
   start.done = true;
 }
@@ -148,6 +157,10 @@ void Recorder::OnFrame(const RawFrame& frame, const CaptureSource& source,
     if (!index.ok() || *index != 0) return;
     waiting_for_cycle_start_ = false;
   }
+  if (absl::Status room = CheckRoom(frame); !room.ok()) {
+    Finish(absl::StrCat("stopped: ", room.message()));
+    return;
+  }
   if (absl::Status status = writer_->Append(frame); !status.ok()) {
     Finish(absl::StrCat("stopped: ", status.message()));
     return;
@@ -162,6 +175,45 @@ void Recorder::OnFrame(const RawFrame& frame, const CaptureSource& source,
   }
 }
 
+absl::Status Recorder::CheckRoom(const RawFrame& frame) {
+  // The file's size on disk, and for each frame not yet flushed (and this one) its
+  // uncompressed size, plus kRecordingOverheadBytes: an upper bound of what the file holds after
+  // this append and its close. Near a limit the frames held in memory are flushed, so that the
+  // bound is the file's size.
+  const uint64_t frame_bytes = frame.pixels.size() * sizeof(float);
+  for (bool flushed = false;; flushed = true) {
+    std::error_code error;
+    const uint64_t on_disk = std::filesystem::file_size(writer_->path(), error);
+    if (error) return absl::ErrnoToStatus(error.value(), "the file's size cannot be read");
+    const uint64_t unflushed =
+        static_cast<uint64_t>(writer_->frames() - writer_->flushed_frames()) + 1;
+    const uint64_t growth = unflushed * frame_bytes + kRecordingOverheadBytes;
+    absl::Status room;
+    if (byte_budget_ != std::numeric_limits<uint64_t>::max() &&
+        on_disk + growth > byte_budget_) {
+      room = absl::ResourceExhaustedError(
+          absl::StrCat("the data directory's quota (", byte_budget_,
+                       " bytes for this recording) would be passed by the next frame"));
+    }
+    struct statvfs file_system;
+    if (room.ok() && ::statvfs(writer_->path().c_str(), &file_system) == 0 &&
+        static_cast<uint64_t>(file_system.f_bavail) * file_system.f_frsize < growth) {
+      room = absl::ResourceExhaustedError(absl::StrCat(
+          "the disk is full: ",
+          static_cast<uint64_t>(file_system.f_bavail) * file_system.f_frsize,
+          " bytes free, the next frame may need ", growth));
+    }
+    struct rlimit limit;
+    if (room.ok() && ::getrlimit(RLIMIT_FSIZE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY &&
+        on_disk + growth > limit.rlim_cur) {
+      room = absl::ResourceExhaustedError(absl::StrCat(
+          "the next frame may take the file past the process's file size limit (RLIMIT_FSIZE = ",
+          limit.rlim_cur, " bytes)"));
+    }
+    if (room.ok() || flushed || unflushed == 1 || !writer_->Flush().ok()) return room;
+  }
+}
+
 void Recorder::OnNoFrame(bool final, const std::string& why) {
   bool stop = false;
   std::shared_ptr<PendingStart> start = TakeRequests(/*with_start=*/final, &stop);
@@ -172,10 +224,12 @@ void Recorder::OnNoFrame(bool final, const std::string& why) {
 void Recorder::Finish(const std::string& error) {
   if (!writer_.has_value()) return;
   std::string message = error;
-  if (absl::Status status = writer_->Close(); !status.ok() && message.empty()) {
-    message = absl::StrCat("closing failed: ", status.message());
+  if (absl::Status status = writer_->Close(); !status.ok()) {
+    absl::StrAppend(&message, message.empty() ? "" : "; ", "closing failed: ", status.message());
   }
   const uint64_t frames = static_cast<uint64_t>(writer_->frames());
+  // A file whose writes failed keeps what was flushed before (Close flushes the rest).
+  const uint64_t flushed = static_cast<uint64_t>(writer_->flushed_frames());
   const std::string path = writer_->path();
   writer_.reset();
   schedule_.reset();
@@ -183,7 +237,7 @@ void Recorder::Finish(const std::string& error) {
     absl::MutexLock lock(&mu_);
     status_.active = false;
     status_.raw_frames = frames;
-    status_.flushed_frames = frames;
+    status_.flushed_frames = flushed;
     status_.error = message;
   }
   log_(absl::StrCat("recording: ", path, " closed with ", frames, " raw frames",

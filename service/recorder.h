@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -25,6 +26,19 @@ namespace transient::service {
 
 inline constexpr uint64_t kMaxRecordingFrames = uint64_t{1} << 32;
 
+// What HDF5 adds to a capture file beyond its frames' data (the header, the camera and schedule
+// records, chunk indexes, the calibration): the margin the quota keeps free for them.
+inline constexpr uint64_t kRecordingOverheadBytes = uint64_t{1} << 20;
+
+// Where a recording goes: `name` as the client gave it (reported in RecordingStatus::path),
+// `path` the file it names (DataDir::NewFilePath), and the bytes the file may grow to before
+// the data directory's quota is reached (UINT64_MAX: no quota).
+struct RecordingTarget {
+  std::string name;
+  std::string path;
+  uint64_t byte_budget = std::numeric_limits<uint64_t>::max();
+};
+
 class Recorder {
  public:
   using Log = std::function<void(const std::string&)>;
@@ -32,13 +46,19 @@ class Recorder {
 
   // ---- RPC threads ----
 
-  // Asks the source thread to begin `path` (a new file: never replaces one) with its next
-  // frame and waits up to `timeout` for it. InvalidArgument naming the field for an empty path,
-  // a deflate level outside 0..9 or max_frames above kMaxRecordingFrames; AlreadyExists;
+  // Asks the source thread to begin `target.path` (a new file: never replaces one) with its
+  // next frame and waits up to `timeout` for it. InvalidArgument naming the field for an empty
+  // path, a deflate level outside 0..9 or max_frames above kMaxRecordingFrames; AlreadyExists;
   // FailedPrecondition during a recording, while another start is served, or when not
   // `accepting` (the pipeline is not running); Unavailable "no frame from <source> within ..."
   // naming `describe_source()` on timeout; the writer's errors.
-  absl::StatusOr<RecordingStatus> Start(const std::string& path, uint64_t max_frames,
+  // The recording stops by itself (RecordingStatus::error says why) before a frame could take
+  // the file past `target.byte_budget`, the free space of its file system or the process's
+  // RLIMIT_FSIZE: the frame is counted at its uncompressed size, as is each frame written since
+  // the last flush (HDF5 may hold those in memory), plus kRecordingOverheadBytes. A write that
+  // fails all the same (the disk filled by another process) stops it too; the frames flushed
+  // before stay readable (CaptureWriter::Close).
+  absl::StatusOr<RecordingStatus> Start(const RecordingTarget& target, uint64_t max_frames,
                                         int deflate_level, bool accepting,
                                         const std::function<std::string()>& describe_source,
                                         absl::Duration timeout = absl::Seconds(10))
@@ -70,7 +90,7 @@ class Recorder {
 
  private:
   struct PendingStart {
-    std::string path;
+    RecordingTarget target;
     uint64_t max_frames = 0;
     int deflate_level = 1;
     bool done = false;
@@ -81,6 +101,10 @@ class Recorder {
   void ServeStart(PendingStart& start, const RawFrame* frame, const CaptureSource* source,
                   std::shared_ptr<const CalibrationTable> calibration, const std::string& why)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex()) ABSL_LOCKS_EXCLUDED(mu_);
+  // OK when appending `frame` keeps the file within byte_budget_, the free space of its file
+  // system and RLIMIT_FSIZE (flushing when that decides); ResourceExhausted saying which limit
+  // it would pass otherwise.
+  absl::Status CheckRoom(const RawFrame& frame) ABSL_EXCLUSIVE_LOCKS_REQUIRED(Hdf5Mutex());
   // Takes the pending requests: the start only when `with_start`.
   std::shared_ptr<PendingStart> TakeRequests(bool with_start, bool* stop) ABSL_LOCKS_EXCLUDED(mu_);
 
@@ -95,6 +119,8 @@ class Recorder {
   std::optional<CaptureWriter> writer_;
   std::shared_ptr<const AcquisitionSchedule> schedule_;
   uint64_t limit_raw_frames_ = 0;  // 0 = until stopped
+  std::string name_;  // as the client gave it
+  uint64_t byte_budget_ = std::numeric_limits<uint64_t>::max();
   bool waiting_for_cycle_start_ = false;
 };
 

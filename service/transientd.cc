@@ -2,7 +2,8 @@
 // the trigonometric-moment reconstruction, and serves transient video and depth over gRPC.
 //
 //   transientd [--source URI] [--calibration FILE | --uncalibrated] [--listen HOST:PORT]
-//              [--config FILE] [--port-file FILE]
+//              [--config FILE] [--port-file FILE] [--data-dir DIR]
+//              [--data-quota BYTES] [--data-quota-files N]
 //
 // SIGINT/SIGTERM: the recording in progress is closed (readable), streams end, exit 0.
 
@@ -21,6 +22,7 @@
 #include "transient/drivers/calibration_capture.h"
 #include "transient/drivers/source_registry.h"
 #include "transient/formats/calibration_file.h"
+#include "transient/service/data_dir.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
 
@@ -95,6 +97,8 @@ int Run(int argc, char** argv) {
   std::string config_path;
   std::string port_file;
   double stats_interval_s = 10.0;
+  std::string data_dir = DefaultDataDir();
+  DataQuota quota;
   app.add_option("--source", source_uri,
                  "capture source URI (the schemes and their keys are listed below, and by "
                  "`transient sources`)")
@@ -112,6 +116,18 @@ int Run(int argc, char** argv) {
                  "reconstruction settings, `key = value` lines: range_method (mese|pisarenko), "
                  "bias_epsilon, threshold, smoothing_sigma_px, takes, video (true|false)");
   app.add_option("--port-file", port_file, "write the port actually bound into this file");
+  app.add_option("--data-dir", data_dir,
+                 "directory of the recordings and calibration files clients ask for: they name "
+                 "new files relative to it, and nothing is written elsewhere (created if "
+                 "missing)")
+      ->capture_default_str();
+  app.add_option("--data-quota", quota.max_bytes,
+                 "most bytes the data directory may hold, e.g. 20GB or 512MiB; a recording "
+                 "stops before its file would pass it, and new files are refused beyond it "
+                 "(0 = no limit)")
+      ->transform(CLI::AsSizeValue(/*kb_is_1000=*/true));
+  app.add_option("--data-quota-files", quota.max_files,
+                 "most files the data directory may hold (0 = no limit)");
   app.add_option("--stats-interval", stats_interval_s, "seconds between stats lines in the log")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -132,9 +148,20 @@ int Run(int argc, char** argv) {
   sigaddset(&signals, SIGINT);
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // A write past RLIMIT_FSIZE fails with EFBIG, as one on a full disk fails with ENOSPC, and
+  // ends the recording it belongs to; the signal would end the daemon.
+  signal(SIGXFSZ, SIG_IGN);
+
+  absl::StatusOr<DataDir> data = DataDir::Open(data_dir, quota);
+  if (!data.ok()) {
+    std::cerr << "transientd: --data-dir: " << data.status().message() << "\n";
+    return 2;
+  }
 
   PipelineOptions options;
   options.source_uri = source_uri;
+  options.data_dir = std::make_shared<const DataDir>(*std::move(data));
+  const std::string data_dir_root = options.data_dir->root();
   options.log = Log;
   options.stats_log_interval = absl::Seconds(stats_interval_s);
   if (!config_path.empty()) {
@@ -173,7 +200,8 @@ int Run(int argc, char** argv) {
   Log(absl::StrCat("serving ", (*pipeline)->source_uri(), " (", (*pipeline)->camera().geometry.width,
                    "x", (*pipeline)->camera().geometry.height, ", ",
                    (*pipeline)->schedule().Describe(), "; calibration: ",
-                   (*pipeline)->calibration_origin(), ") on ", (*server)->address()));
+                   (*pipeline)->calibration_origin(), ") on ", (*server)->address(),
+                   "; files of clients go to ", data_dir_root));
   if (!port_file.empty()) {
     // Written whole under a temporary name, so that a reader never sees a partial port.
     const std::string partial = port_file + ".partial";

@@ -34,7 +34,6 @@ using ::transient::service::testing::Daemon;
 using ::transient::testing::ClosedPort;
 using ::transient::testing::IsOk;
 using ::transient::testing::MustConnect;
-using ::transient::testing::ScratchDirectory;
 using ::transient::testing::SecondsSince;
 using ::transient::testing::StatusIs;
 
@@ -134,21 +133,20 @@ TEST(Client, GetPixelOfTheLatestFrameAndOutsideTheSensorIsInvalidArgument) {
 }
 
 TEST(Client, RecordingStartsAndStopsAndRefusesWhatTheDaemonRefuses) {
-  ScratchDirectory dir;
   Daemon daemon(kSmallSim);
   const Client client = MustConnect(daemon.address());
   EXPECT_THAT(client.StopRecording().status(),
               StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("StopRecording from")));
   v1::StartRecordingRequest request;
-  request.set_path(dir.File("capture.h5"));
+  request.set_path("capture.h5");
   const absl::StatusOr<v1::Recording> started = client.StartRecording(request);
   ASSERT_THAT(started.status(), IsOk());
   EXPECT_TRUE(started->active());
-  EXPECT_EQ(started->path(), dir.File("capture.h5"));
+  EXPECT_EQ(started->path(), "capture.h5");
   const absl::StatusOr<v1::Recording> stopped = client.StopRecording();
   ASSERT_THAT(stopped.status(), IsOk());
   EXPECT_FALSE(stopped->active());
-  EXPECT_TRUE(std::filesystem::exists(dir.File("capture.h5")));
+  EXPECT_TRUE(std::filesystem::exists(daemon.DataFile("capture.h5")));
   // A file is never replaced.
   EXPECT_THAT(client.StartRecording(request).status(),
               StatusIs(absl::StatusCode::kAlreadyExists, HasSubstr("StartRecording from")));
@@ -171,12 +169,11 @@ TEST(Client, GetStatsCountsTheFramesAndTheSubscriber) {
 }
 
 TEST(Client, CalibrateReportsEachTakeThenTheResult) {
-  ScratchDirectory dir;
   Daemon daemon(kSmallSim);
   const Client client = MustConnect(daemon.address());
   v1::CalibrateRequest request;
   request.set_takes(4);
-  request.set_output_path(dir.File("calibration.h5"));
+  request.set_output_path("calibration.h5");
   std::vector<std::pair<int, int>> progress;
   const absl::StatusOr<v1::CalibrateResult> result =
       client.Calibrate(request, [&](int done, int total) { progress.push_back({done, total}); });
@@ -187,7 +184,8 @@ TEST(Client, CalibrateReportsEachTakeThenTheResult) {
   EXPECT_EQ(progress.back(), std::make_pair(4, 4));
   EXPECT_TRUE(result->applied());
   EXPECT_EQ(result->pixels(), 32u * 24u);
-  EXPECT_EQ(result->output_path(), dir.File("calibration.h5"));
+  EXPECT_EQ(result->output_path(), "calibration.h5");
+  EXPECT_TRUE(std::filesystem::exists(daemon.DataFile("calibration.h5")));
   // The same path again is the daemon's AlreadyExists.
   EXPECT_THAT(client.Calibrate(request).status(),
               StatusIs(absl::StatusCode::kAlreadyExists,

@@ -443,15 +443,22 @@ class ClientRpcs(unittest.TestCase):
                               "takes")
 
     def test_recording(self):
-        path = os.path.join(os.environ["TRANSIENT_TEST_WORKDIR"], "recording.h5")
-        started = self.client.start_recording(path)
+        started = self.client.start_recording("recording.h5")
         self.assertTrue(started.active)
-        self.assertEqual(started.path, path)
+        self.assertEqual(started.path, "recording.h5")
         self.assertTrue(self.client.stats().recording.active)
         stopped = self.client.stop_recording()
         self.assertFalse(stopped.active)
-        self.assertTrue(os.path.isfile(path))
-        self.assert_rpc_error(lambda: self.client.start_recording(path), "ALREADY_EXISTS", path)
+        self.assertTrue(os.path.isfile(os.path.join(DAEMON.data_dir, "recording.h5")))
+        self.assert_rpc_error(lambda: self.client.start_recording("recording.h5"),
+                              "ALREADY_EXISTS", "recording.h5")
+        # Only names inside the daemon's data directory.
+        outside = os.path.join(os.environ["TRANSIENT_TEST_WORKDIR"], "outside.h5")
+        self.assert_rpc_error(lambda: self.client.start_recording(outside), "INVALID_ARGUMENT",
+                              "an absolute path")
+        self.assert_rpc_error(lambda: self.client.start_recording("../outside.h5"),
+                              "INVALID_ARGUMENT", "..")
+        self.assertFalse(os.path.exists(outside))
 
     def test_stats(self):
         stats = self.client.stats()

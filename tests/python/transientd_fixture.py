@@ -19,10 +19,12 @@ class DaemonError(Exception):
 
 
 class Daemon:
-    """transientd on 127.0.0.1 with a port chosen at run time, its log in workdir."""
+    """transientd on 127.0.0.1 with a port chosen at run time, its log in workdir, and its data
+    directory (recordings, calibration files) `data_dir`, by default workdir/data."""
 
-    def __init__(self, binary, workdir, source=SOURCE, extra_args=()):
+    def __init__(self, binary, workdir, source=SOURCE, extra_args=(), data_dir=None):
         os.makedirs(workdir, exist_ok=True)
+        self.data_dir = data_dir or os.path.join(workdir, "data")
         self.port_file = os.path.join(workdir, "port")
         if os.path.exists(self.port_file):
             os.remove(self.port_file)
@@ -30,7 +32,8 @@ class Daemon:
         self.log = open(self.log_path, "wb")  # pylint: disable=consider-using-with
         self.process = subprocess.Popen(  # pylint: disable=consider-using-with
             [binary, "--listen", "127.0.0.1:0", "--port-file", self.port_file, "--source",
-             source, *extra_args], stdout=self.log, stderr=subprocess.STDOUT)
+             source, "--data-dir", self.data_dir, *extra_args],
+            stdout=self.log, stderr=subprocess.STDOUT)
         self.address = None
 
     def wait_until_serving(self):

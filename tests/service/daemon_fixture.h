@@ -14,8 +14,10 @@
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "gtest/gtest.h"
+#include "tests/support/scratch_directory.h"
 #include "tests/support/wait.h"
 #include "transient/client/decoded_image.h"
+#include "transient/service/data_dir.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
 #include "transient/v1/transient.grpc.pb.h"
@@ -37,10 +39,25 @@ inline v1::StreamRequest Request(std::initializer_list<v1::Product> products) {
   return request;
 }
 
+// A data directory without quota at `dir`, for a daemon whose files outlive it.
+inline std::shared_ptr<const DataDir> DataDirAt(const ::transient::testing::ScratchDirectory& dir,
+                                                DataQuota quota = {}) {
+  absl::StatusOr<DataDir> data_dir = DataDir::Open(dir.path().string(), quota);
+  EXPECT_TRUE(data_dir.ok()) << data_dir.status();
+  return data_dir.ok() ? std::make_shared<const DataDir>(*std::move(data_dir)) : nullptr;
+}
+
 class Daemon {
  public:
   // start = false: the server answers, but no frame is ever produced until pipeline().Start().
+  // Without options.data_dir, the daemon writes into a scratch directory of its own, removed
+  // with it.
   explicit Daemon(PipelineOptions options, bool start = true) {
+    if (options.data_dir == nullptr) {
+      own_data_ = std::make_unique<::transient::testing::ScratchDirectory>();
+      options.data_dir = DataDirAt(*own_data_);
+    }
+    data_dir_ = options.data_dir;
     absl::StatusOr<std::unique_ptr<Pipeline>> pipeline = Pipeline::Create(std::move(options));
     EXPECT_TRUE(pipeline.ok()) << pipeline.status();
     if (!pipeline.ok()) return;
@@ -62,6 +79,10 @@ class Daemon {
   }
 
   Pipeline& pipeline() { return *pipeline_; }
+  // The path of `name` in the daemon's data directory.
+  std::string DataFile(const std::string& name) const {
+    return absl::StrCat(data_dir_->root(), "/", name);
+  }
   std::string address() const { return absl::StrCat("127.0.0.1:", server_->port()); }
   std::unique_ptr<v1::Transient::Stub> Stub() { return Connect(server_->port()); }
 
@@ -85,15 +106,17 @@ class Daemon {
   }
 
  private:
+  std::unique_ptr<::transient::testing::ScratchDirectory> own_data_;  // outlives the pipeline
+  std::shared_ptr<const DataDir> data_dir_;
   std::unique_ptr<Pipeline> pipeline_;
   std::unique_ptr<TransientServer> server_;
 };
 
 // Streams MOMENT_STATE from `daemon`, starts a recording of `max_frames` transient frames into
-// `path` once the first frame has come, and keeps the live frames with images by capture time
+// `name` (of its data directory) once the first frame has come, and keeps the live frames with images by capture time
 // until the recording has ended by itself (and a few frames more, so that every recorded cycle
 // has been published). The raw frames recorded; 0, with a test failure, when it went wrong.
-inline uint64_t RecordWhileStreaming(Daemon& daemon, const std::string& path, int max_frames,
+inline uint64_t RecordWhileStreaming(Daemon& daemon, const std::string& name, int max_frames,
                                      std::map<double, v1::Frame>* live) {
   grpc::ClientContext context;
   context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(60)));
@@ -105,7 +128,7 @@ inline uint64_t RecordWhileStreaming(Daemon& daemon, const std::string& path, in
   } else {
     grpc::ClientContext start_context;
     v1::StartRecordingRequest start;
-    start.set_path(path);
+    start.set_path(name);
     start.set_max_frames(max_frames);
     v1::Recording recording;
     const grpc::Status status = daemon.Stub()->StartRecording(&start_context, start, &recording);

@@ -220,7 +220,7 @@ TEST(DepthSourceDaemon, RefusesWhatNeedsModulatedCapturesSayingWhy) {
 
   grpc::ClientContext record_context;
   v1::StartRecordingRequest record;
-  record.set_path(absl::StrCat(::testing::TempDir(), "/depth_source_test.h5"));
+  record.set_path("depth_source_test.h5");
   v1::Recording recording;
   const grpc::Status record_status =
       daemon.Stub()->StartRecording(&record_context, record, &recording);

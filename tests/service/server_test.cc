@@ -47,6 +47,7 @@ using ::transient::testing::WaitUntil;
 constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 
 using ::transient::service::testing::Connect;
+using ::transient::service::testing::DataDirAt;
 using ::transient::service::testing::Daemon;
 using ::transient::service::testing::ExpectSameAsLive;
 using ::transient::service::testing::RecordWhileStreaming;
@@ -419,11 +420,12 @@ TEST(Server, RecordingThroughTheRpcReplaysToTheSameMomentsBitForBit) {
   // recording's first cycle does not have.
   PipelineOptions live{.source_uri = "sim:mirrors?width=24&height=16&seed=3"};
   live.config.video = false;
+  live.data_dir = DataDirAt(dir);
   std::map<double, v1::Frame> live_frames;  // by capture time
   uint64_t recorded = 0;
   {
     Daemon daemon(live);
-    recorded = RecordWhileStreaming(daemon, path, 5, &live_frames);
+    recorded = RecordWhileStreaming(daemon, "recorded.h5", 5, &live_frames);
   }
   ASSERT_EQ(recorded, 5u * 14u);
 
@@ -576,12 +578,11 @@ TEST(Server, SetConfigRefusesAnInvalidFieldAndChangesNothing) {
 }
 
 TEST(Server, CalibrateStreamsProgressThenTheAppliedResult) {
-  ScratchDirectory dir;
   Daemon daemon(kSmallSim);
   auto stub = daemon.Stub();
   v1::CalibrateRequest request;
   request.set_takes(4);
-  request.set_output_path(dir.File("calibration.h5"));
+  request.set_output_path("calibration.h5");
   grpc::ClientContext context;
   auto reader = stub->Calibrate(&context, request);
   std::vector<v1::CalibrateProgress> messages;
@@ -597,8 +598,9 @@ TEST(Server, CalibrateStreamsProgressThenTheAppliedResult) {
   EXPECT_TRUE(messages.back().result().applied());
   EXPECT_EQ(messages.back().result().pixels(), 32u * 24u);
   EXPECT_GT(messages.back().result().usable_pixels(), 32u * 24u * 9 / 10);
-  EXPECT_TRUE(std::filesystem::exists(dir.File("calibration.h5")));
-  EXPECT_EQ(daemon.pipeline().calibration_origin(), dir.File("calibration.h5"));
+  EXPECT_EQ(messages.back().result().output_path(), "calibration.h5");
+  EXPECT_TRUE(std::filesystem::exists(daemon.DataFile("calibration.h5")));
+  EXPECT_EQ(daemon.pipeline().calibration_origin(), "calibration.h5");
 
   // The same path again is refused: a calibration never replaces a file.
   grpc::ClientContext again_context;
@@ -609,7 +611,6 @@ TEST(Server, CalibrateStreamsProgressThenTheAppliedResult) {
 }
 
 TEST(Server, RecordingRequestsAreCheckedAndStopWithoutRecordingIsRefused) {
-  ScratchDirectory dir;
   Daemon daemon(kSmallSim);
   auto stub = daemon.Stub();
   {
@@ -618,14 +619,14 @@ TEST(Server, RecordingRequestsAreCheckedAndStopWithoutRecordingIsRefused) {
     EXPECT_EQ(stub->StopRecording(&context, {}, &out).error_code(),
               grpc::StatusCode::FAILED_PRECONDITION);
   }
-  std::ofstream(dir.File("taken.h5")) << "x";
+  std::ofstream(daemon.DataFile("taken.h5")) << "x";
   v1::StartRecordingRequest exists;
-  exists.set_path(dir.File("taken.h5"));
+  exists.set_path("taken.h5");
   v1::StartRecordingRequest deflate;
-  deflate.set_path(dir.File("new.h5"));
+  deflate.set_path("new.h5");
   deflate.set_deflate_level(12);
   v1::StartRecordingRequest nowhere;
-  nowhere.set_path(dir.File("no/such/dir/x.h5"));
+  nowhere.set_path("no/such/dir/x.h5");
   for (const auto& [request, code] :
        std::vector<std::pair<v1::StartRecordingRequest, grpc::StatusCode>>{
            {exists, grpc::StatusCode::ALREADY_EXISTS},
@@ -639,8 +640,8 @@ TEST(Server, RecordingRequestsAreCheckedAndStopWithoutRecordingIsRefused) {
   grpc::ClientContext context;
   v1::Recording out;
   grpc::Status status = stub->StartRecording(&context, nowhere, &out);
-  EXPECT_FALSE(status.ok());
-  EXPECT_THAT(status.error_message(), HasSubstr("no/such/dir"));
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_THAT(status.error_message(), HasSubstr("no directory \"no\""));
   // The stream is unaffected.
   std::vector<v1::Frame> frames;
   EXPECT_THAT(Receive(*stub, Request({v1::RANGE}), 2, &frames), IsOk());
@@ -687,7 +688,8 @@ TEST(TransientdBinary, SigtermDuringARecordingClosesTheFileAndExitsZero) {
   const std::string port_file = dir.File("port");
   const std::string capture = dir.File("capture.h5");
   ChildProcess daemon({TRANSIENTD_BINARY, "--source", "sim:mirrors?width=32&height=24", "--listen",
-                       "127.0.0.1:0", "--port-file", port_file, "--uncalibrated"},
+                       "127.0.0.1:0", "--port-file", port_file, "--uncalibrated", "--data-dir",
+                       dir.path().string()},
                       dir.File("transientd.log"));
   ASSERT_TRUE(daemon.started());
   const int port = WaitForPortFile(port_file);
@@ -696,7 +698,7 @@ TEST(TransientdBinary, SigtermDuringARecordingClosesTheFileAndExitsZero) {
   {
     grpc::ClientContext context;
     v1::StartRecordingRequest start;
-    start.set_path(capture);
+    start.set_path("capture.h5");
     v1::Recording out;
     grpc::Status status = stub->StartRecording(&context, start, &out);
     ASSERT_TRUE(status.ok()) << status.error_message();

@@ -30,6 +30,7 @@ namespace {
 using ::transient::service::PipelineOptions;
 using ::transient::service::testing::Daemon;
 using ::transient::service::testing::ExpectSameAsLive;
+using ::transient::service::testing::DataDirAt;
 using ::transient::service::testing::RecordWhileStreaming;
 using ::transient::service::testing::Request;
 using ::transient::testing::IsOk;
@@ -277,10 +278,11 @@ TEST_F(V4l2DaemonTest, ARecordingReplaysToTheSameMomentStateBitForBit) {
   const std::string path = dir.File("mlx75027.h5");
   PipelineOptions live{.source_uri = kV4l2};
   live.config.video = false;  // it fills outliers from the previous frame, which a replay lacks
+  live.data_dir = DataDirAt(dir);
   std::map<double, v1::Frame> live_frames;  // by capture time
   {
     Daemon daemon(live);
-    EXPECT_EQ(RecordWhileStreaming(daemon, path, 4, &live_frames), 4u * 12u);
+    EXPECT_EQ(RecordWhileStreaming(daemon, "mlx75027.h5", 4, &live_frames), 4u * 12u);
   }
   // The file holds the read-back values and the driver's timestamps and sequence numbers.
   {

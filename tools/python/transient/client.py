@@ -198,8 +198,9 @@ class Client:
         transient.v1.CalibrateResult (takes averaged, frames rejected, usable pixels).
 
         source_uri: the Dirac's source; "" for a simulator's calibration scene.
-        takes: takes averaged, 1..256 (0 = 20). output_path: also write a calibration file
-        there (a path of the daemon's machine). keep_current: do not apply the result.
+        takes: takes averaged, 1..256 (0 = 20). output_path: also write a calibration file of
+        that name in the daemon's data directory (transientd --data-dir; a name relative to it,
+        never an existing file). keep_current: do not apply the result.
         progress: called as progress(done, total) after each take.
         timeout_s: deadline of the whole calibration in seconds; None for none.
         """
@@ -219,9 +220,12 @@ class Client:
         return result
 
     def start_recording(self, path, *, max_frames=0, deflate_level=0):
-        """Starts recording the source's raw frames into a new HDF5 capture file at `path` (on
-        the daemon's machine; an existing file is refused). max_frames: transient frames, 0 =
-        until stop_recording. deflate_level 1..9 (0 = 1). Returns transient.v1.Recording."""
+        """Starts recording the source's raw frames into a new HDF5 capture file named `path` in
+        the daemon's data directory (transientd --data-dir; a name relative to it: absolute
+        paths, "..", symbolic links and existing files are refused). max_frames: transient
+        frames, 0 = until stop_recording. deflate_level 1..9 (0 = 1). Returns
+        transient.v1.Recording; the recording stops by itself before it passes the daemon's
+        quota or fills its disk (Recording.error says why)."""
         return self._call("StartRecording", pb2.StartRecordingRequest(
             path=path, max_frames=max_frames, deflate_level=deflate_level))
 

@@ -119,6 +119,9 @@ class CaptureWriter {
   // Makes every appended frame durable.
   absl::Status Flush();
   // Flushes and closes; the file then opens in any HDF5 reader. Further calls do nothing.
+  // When the flush or close fails (a full disk), the error is returned and the file is
+  // extended to the end HDF5 recorded (h5::ExtendToRecordedEnd): it still opens, with every
+  // frame flushed before readable.
   absl::Status Close();
 
   const std::string& path() const { return path_; }

@@ -69,6 +69,15 @@ inline Id Object(hid_t id) { return Id(id, H5Oclose); }
 // is reported through an absl::Status instead.
 void SilenceErrorStack();
 
+// A file whose writes failed (a full disk, RLIMIT_FSIZE) is still closed by HDF5, which then
+// writes its superblock with the end of file it had allocated, past what reached the disk: HDF5
+// refuses such a file as truncated. This extends the file to that recorded end (a sparse hole,
+// which takes no space on a full disk), so that it opens again and what was flushed before the
+// failure reads as before; what was not reads as zeros (a frame's chunk then fails to decode).
+// OK when nothing needed doing; FailedPrecondition for a superblock this does not know (not
+// version 2 or 3 with 8-byte addresses); the file system's error otherwise.
+absl::Status ExtendToRecordedEnd(const std::string& path);
+
 // ---------------------------------------------------------------------------------------------
 // Names and descriptions for messages
 

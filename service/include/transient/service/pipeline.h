@@ -26,6 +26,7 @@
 #include "transient/drivers/capture_source.h"
 #include "transient/reconstruct/calibration.h"
 #include "transient/reconstruct/reconstructor.h"
+#include "transient/service/data_dir.h"
 #include "transient/service/pipeline_stats.h"
 #include "transient/service/products.h"
 #include "transient/service/reconstruction_config.h"
@@ -53,6 +54,10 @@ struct PipelineOptions {
   // Log lines (stats every few seconds, state changes, errors); nullptr = none.
   std::function<void(const std::string&)> log = nullptr;
   absl::Duration stats_log_interval = absl::Seconds(10);
+  // Where recordings and calibration files go (clients name files relative to it), with its
+  // quota; nullptr = nowhere: StartRecording and a Calibrate with an output_path are
+  // FailedPrecondition.
+  std::shared_ptr<const DataDir> data_dir = nullptr;
 };
 
 struct CalibrationOutcome {
@@ -100,14 +105,20 @@ class Pipeline {
   // camera), reporting progress; applies it unless keep_current. Runs on the caller's thread;
   // Cancelled once `cancelled` returns true or the pipeline stops. FailedPrecondition for a
   // depth camera (SamplingScheme::kDepth), which has no moments to calibrate.
+  // `output_name`: also write a calibration file of that name in the data directory ("" =
+  // none); refused as DataDir::NewFilePath and DataDir::CheckRoom say.
   absl::StatusOr<CalibrationOutcome> Calibrate(const std::string& source_uri, int takes,
-                                               const std::string& output_path, bool keep_current,
+                                               const std::string& output_name, bool keep_current,
                                                const std::function<void(int, int)>& on_take,
                                                const std::function<bool()>& cancelled);
 
-  // Records the source's raw frames into a capture file (recorder.h). FailedPrecondition for a
-  // depth camera (SamplingScheme::kDepth): the capture format holds modulated captures.
-  absl::StatusOr<RecordingStatus> StartRecording(const std::string& path, uint64_t max_frames,
+  // Records the source's raw frames into a capture file (recorder.h) of the name `name` in the
+  // data directory (DataDir::NewFilePath). FailedPrecondition for a depth camera
+  // (SamplingScheme::kDepth): the capture format holds modulated captures; FailedPrecondition
+  // without a data directory; ResourceExhausted when its quota leaves no room for the file's
+  // records and one uncompressed frame (DataDir::CheckRoom); the recording stops by itself
+  // before its file passes the quota.
+  absl::StatusOr<RecordingStatus> StartRecording(const std::string& name, uint64_t max_frames,
                                                  int deflate_level);
   absl::StatusOr<RecordingStatus> StopRecording();
 
@@ -115,6 +126,9 @@ class Pipeline {
 
  private:
   explicit Pipeline(PipelineOptions options);
+  // The path of a new file `name` of the data directory (DataDir::NewFilePath), or
+  // FailedPrecondition naming `field` without one.
+  absl::StatusOr<std::string> NewDataFile(absl::string_view field, absl::string_view name) const;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
