@@ -6,12 +6,16 @@
 #include <cmath>
 #include <optional>
 #include <utility>
+#include <vector>
+
+#include <grpcpp/support/client_interceptor.h>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "stream_watcher.h"
+#include "transient/wire/credentials.h"
 #include "transient/wire/grpc_status.h"
 
 namespace transient::client {
@@ -19,6 +23,59 @@ namespace {
 
 // How often connecting looks at the cancel flag.
 constexpr absl::Duration kConnectPoll = absl::Milliseconds(100);
+
+// Adds the bearer token to the initial metadata of every call of the channel: the unary calls,
+// Calibrate and every FrameStream alike.
+class TokenInterceptor final : public grpc::experimental::Interceptor {
+ public:
+  explicit TokenInterceptor(const std::string* authorization) : authorization_(authorization) {}
+  void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
+    if (methods->QueryInterceptionHookPoint(
+            grpc::experimental::InterceptionHookPoints::PRE_SEND_INITIAL_METADATA)) {
+      methods->GetSendInitialMetadata()->insert({wire::kAuthorizationKey, *authorization_});
+    }
+    methods->Proceed();
+  }
+
+ private:
+  const std::string* authorization_;
+};
+
+class TokenInterceptorFactory final
+    : public grpc::experimental::ClientInterceptorFactoryInterface {
+ public:
+  explicit TokenInterceptorFactory(std::string token)
+      : authorization_(absl::StrCat(wire::kBearerPrefix, token)) {}
+  grpc::experimental::Interceptor* CreateClientInterceptor(
+      grpc::experimental::ClientRpcInfo*) override {
+    return new TokenInterceptor(&authorization_);
+  }
+
+ private:
+  const std::string authorization_;  // lives with the channel, which owns the factory
+};
+
+// The channel's credentials: SSL with the CA (and a client certificate) or plain text.
+absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> ChannelCredentials(
+    const ChannelSecurity& security) {
+  if (security.ca_file.empty()) return grpc::InsecureChannelCredentials();
+  grpc::SslCredentialsOptions ssl;
+  absl::StatusOr<std::string> ca =
+      wire::ReadPemFile("security.ca_file", security.ca_file, /*secret=*/false);
+  if (!ca.ok()) return ca.status();
+  ssl.pem_root_certs = *std::move(ca);
+  if (!security.cert_file.empty()) {
+    absl::StatusOr<std::string> cert =
+        wire::ReadPemFile("security.cert_file", security.cert_file, /*secret=*/false);
+    if (!cert.ok()) return cert.status();
+    absl::StatusOr<std::string> key =
+        wire::ReadPemFile("security.key_file", security.key_file, /*secret=*/true);
+    if (!key.ok()) return key.status();
+    ssl.pem_cert_chain = *std::move(cert);
+    ssl.pem_private_key = *std::move(key);
+  }
+  return grpc::SslCredentials(ssl);
+}
 
 bool FiniteAndPositive(double value) { return std::isfinite(value) && value > 0.0; }
 
@@ -37,6 +94,15 @@ absl::Status ConnectOptions::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("call_timeout_s = ", call_timeout_s, ". Violated constraint: finite and > 0"));
   }
+  if (security.cert_file.empty() != security.key_file.empty()) {
+    return absl::InvalidArgumentError(
+        "security.cert_file, security.key_file: expected both (a client certificate and its "
+        "key) or neither");
+  }
+  if (security.ca_file.empty() && (!security.cert_file.empty() || !security.server_name.empty())) {
+    return absl::InvalidArgumentError(
+        "security.ca_file: required with a client certificate or a server name (they are TLS)");
+  }
   return absl::OkStatus();
 }
 
@@ -51,8 +117,21 @@ absl::StatusOr<Client> Client::Connect(const ConnectOptions& options) {
   if (absl::Status status = options.Validate(); !status.ok()) return status;
   grpc::ChannelArguments arguments;
   arguments.SetMaxReceiveMessageSize(-1);
-  std::shared_ptr<grpc::Channel> channel =
-      grpc::CreateCustomChannel(options.address, grpc::InsecureChannelCredentials(), arguments);
+  if (!options.security.server_name.empty()) {
+    arguments.SetSslTargetNameOverride(options.security.server_name);
+  }
+  absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> credentials =
+      ChannelCredentials(options.security);
+  if (!credentials.ok()) return credentials.status();
+  std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
+  if (!options.security.token_file.empty()) {
+    absl::StatusOr<std::string> token =
+        wire::ReadTokenFile("security.token_file", options.security.token_file);
+    if (!token.ok()) return token.status();
+    interceptors.push_back(std::make_unique<TokenInterceptorFactory>(*std::move(token)));
+  }
+  std::shared_ptr<grpc::Channel> channel = grpc::experimental::CreateCustomChannelWithInterceptors(
+      options.address, *credentials, arguments, std::move(interceptors));
   const absl::Time deadline = absl::Now() + absl::Seconds(options.timeout_s);
   // In short waits, so that the cancel flag is seen while the daemon does not answer.
   while (!channel->WaitForConnected(

@@ -3,13 +3,17 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/impl/server_builder_option.h>
+#include <grpcpp/impl/server_builder_plugin.h>
 
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -418,10 +422,11 @@ SolvedImage SinglePixel(const SolvedImage& s, int64_t p) {
 
 class TransientServer::Service final : public v1::Transient::Service {
  public:
-  Service(Pipeline* pipeline, std::string version)
-      : pipeline_(pipeline), version_(std::move(version)) {}
+  Service(Pipeline* pipeline, std::string version, std::shared_ptr<const Access> access)
+      : pipeline_(pipeline), version_(std::move(version)), access_(std::move(access)) {}
 
-  grpc::Status GetInfo(grpc::ServerContext*, const v1::GetInfoRequest*, v1::Info* info) override {
+  grpc::Status GetInfo(grpc::ServerContext* context, const v1::GetInfoRequest*, v1::Info* info) override {
+    if (grpc::Status denied = Authorize(*context); !denied.ok()) return denied;
     const CameraInfo& camera = pipeline_->camera();
     v1::CameraInfo* c = info->mutable_camera();
     c->set_width(camera.geometry.width);
@@ -454,11 +459,17 @@ class TransientServer::Service final : public v1::Transient::Service {
     info->set_version(version_);
     info->set_state(ToProto(pipeline_->state()));
     info->set_unambiguous_range_m(o.UnambiguousRangeM());
+    v1::Access* access = info->mutable_access();
+    access->set_tls(access_ != nullptr && access_->tls());
+    access->set_client_certificate(access_ != nullptr && access_->client_certificate_required());
+    access->set_token(access_ != nullptr && access_->token_required());
+    access->set_insecure(access_ != nullptr && access_->insecure());
     return grpc::Status::OK;
   }
 
   grpc::Status StreamFrames(grpc::ServerContext* context, const v1::StreamRequest* request,
                             grpc::ServerWriter<v1::Frame>* writer) override {
+    if (grpc::Status denied = Authorize(*context); !denied.ok()) return denied;
     absl::StatusOr<StreamPlan> plan = PlanStream(*request, *pipeline_);
     if (!plan.ok()) return ToGrpcStatus(plan.status());
     // Subscribed first, then the state: an end announced in between is not missed.
@@ -475,19 +486,22 @@ class TransientServer::Service final : public v1::Transient::Service {
     return ToGrpcStatus(end);
   }
 
-  grpc::Status GetPixel(grpc::ServerContext*, const v1::GetPixelRequest* request,
+  grpc::Status GetPixel(grpc::ServerContext* context, const v1::GetPixelRequest* request,
                         v1::Pixel* out) override {
+    if (grpc::Status denied = Authorize(*context); !denied.ok()) return denied;
     return ToGrpcStatus(Pixel(*request, out));
   }
 
-  grpc::Status GetConfig(grpc::ServerContext*, const v1::GetConfigRequest*,
+  grpc::Status GetConfig(grpc::ServerContext* context, const v1::GetConfigRequest*,
                          v1::Config* out) override {
+    if (grpc::Status denied = Authorize(*context); !denied.ok()) return denied;
     *out = ToProto(pipeline_->config());
     return grpc::Status::OK;
   }
 
-  grpc::Status SetConfig(grpc::ServerContext*, const v1::Config* update,
+  grpc::Status SetConfig(grpc::ServerContext* context, const v1::Config* update,
                          v1::Config* out) override {
+    if (grpc::Status denied = Authorize(*context); !denied.ok()) return denied;
     absl::StatusOr<ReconstructionConfig> merged = Merge(pipeline_->config(), *update);
     if (!merged.ok()) return ToGrpcStatus(merged.status());
     if (absl::Status status = pipeline_->SetConfig(*merged); !status.ok()) {
@@ -499,6 +513,7 @@ class TransientServer::Service final : public v1::Transient::Service {
 
   grpc::Status Calibrate(grpc::ServerContext* context, const v1::CalibrateRequest* request,
                          grpc::ServerWriter<v1::CalibrateProgress>* writer) override {
+    if (grpc::Status denied = Authorize(*context); !denied.ok()) return denied;
     if (request->takes() > 256) {
       return ToGrpcStatus(absl::InvalidArgumentError(
           absl::StrCat("takes = ", request->takes(), ": expected 1..256 (0 = 20)")));
@@ -529,8 +544,9 @@ class TransientServer::Service final : public v1::Transient::Service {
     return grpc::Status::OK;
   }
 
-  grpc::Status StartRecording(grpc::ServerContext*, const v1::StartRecordingRequest* request,
+  grpc::Status StartRecording(grpc::ServerContext* context, const v1::StartRecordingRequest* request,
                               v1::Recording* out) override {
+    if (grpc::Status denied = Authorize(*context); !denied.ok()) return denied;
     if (request->deflate_level() > 9) {
       return ToGrpcStatus(absl::InvalidArgumentError(
           absl::StrCat("deflate_level = ", request->deflate_level(), ": expected 1..9 (0 = 1)")));
@@ -543,16 +559,18 @@ class TransientServer::Service final : public v1::Transient::Service {
     return grpc::Status::OK;
   }
 
-  grpc::Status StopRecording(grpc::ServerContext*, const v1::StopRecordingRequest*,
+  grpc::Status StopRecording(grpc::ServerContext* context, const v1::StopRecordingRequest*,
                              v1::Recording* out) override {
+    if (grpc::Status denied = Authorize(*context); !denied.ok()) return denied;
     absl::StatusOr<RecordingStatus> status = pipeline_->StopRecording();
     if (!status.ok()) return ToGrpcStatus(status.status());
     ToProto(*status, out);
     return grpc::Status::OK;
   }
 
-  grpc::Status GetStats(grpc::ServerContext*, const v1::GetStatsRequest*,
+  grpc::Status GetStats(grpc::ServerContext* context, const v1::GetStatsRequest*,
                         v1::Stats* out) override {
+    if (grpc::Status denied = Authorize(*context); !denied.ok()) return denied;
     const PipelineStats s = pipeline_->Stats();
     out->set_raw_frames_in(s.raw_frames_in);
     out->set_raw_frames_dropped(s.raw_frames_dropped);
@@ -736,19 +754,49 @@ class TransientServer::Service final : public v1::Transient::Service {
     return absl::OkStatus();
   }
 
+  // Every transient.v1 call passes here first (ServerOptions::access).
+  grpc::Status Authorize(const grpc::ServerContext& context) const {
+    return access_ == nullptr ? grpc::Status::OK : access_->Authorize(context);
+  }
+
   Pipeline* const pipeline_;
   const std::string version_;
+  const std::shared_ptr<const Access> access_;
 };
+
+namespace {
+
+// Takes the reflection plugin, which linking grpc++_reflection adds to every server, off one.
+class WithoutReflection final : public grpc::ServerBuilderOption {
+ public:
+  void UpdateArguments(grpc::ChannelArguments*) override {}
+  void UpdatePlugins(std::vector<std::unique_ptr<grpc::ServerBuilderPlugin>>* plugins) override {
+    std::erase_if(*plugins, [](const std::unique_ptr<grpc::ServerBuilderPlugin>& plugin) {
+      return dynamic_cast<grpc::reflection::ProtoServerReflectionPlugin*>(plugin.get()) != nullptr;
+    });
+  }
+};
+
+}  // namespace
 
 absl::StatusOr<std::unique_ptr<TransientServer>> TransientServer::Start(
     Pipeline* pipeline, const ServerOptions& options) {
   std::unique_ptr<TransientServer> server(new TransientServer());
-  server->service_ = std::make_unique<Service>(pipeline, options.version);
+  server->service_ = std::make_unique<Service>(pipeline, options.version, options.access);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
+  // Reflection describes the protocol to generic clients (grpcurl); it cannot check a token or
+  // a client certificate, so a daemon that requires them serves none.
+  if (options.access != nullptr &&
+      (options.access->token_required() || options.access->client_certificate_required())) {
+    builder.SetOption(std::make_unique<WithoutReflection>());
+  }
   int port = 0;
-  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(options.listen,
+                           options.access != nullptr ? options.access->ServerCredentials()
+                                                     : grpc::InsecureServerCredentials(),
+                           &port);
   builder.RegisterService(server->service_.get());
   server->server_ = builder.BuildAndStart();
   if (server->server_ == nullptr || port == 0) {

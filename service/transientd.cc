@@ -4,6 +4,8 @@
 //   transientd [--source URI] [--calibration FILE | --uncalibrated] [--listen HOST:PORT]
 //              [--config FILE] [--port-file FILE] [--data-dir DIR]
 //              [--data-quota BYTES] [--data-quota-files N]
+//              [--tls-cert FILE --tls-key FILE] [--client-ca FILE] [--token-file FILE]
+//              [--insecure]
 //
 // SIGINT/SIGTERM: the recording in progress is closed (readable), streams end, exit 0.
 
@@ -22,6 +24,7 @@
 #include "transient/drivers/calibration_capture.h"
 #include "transient/drivers/source_registry.h"
 #include "transient/formats/calibration_file.h"
+#include "transient/service/access.h"
 #include "transient/service/data_dir.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
@@ -99,6 +102,7 @@ int Run(int argc, char** argv) {
   double stats_interval_s = 10.0;
   std::string data_dir = DefaultDataDir();
   DataQuota quota;
+  AccessOptions access_options;
   app.add_option("--source", source_uri,
                  "capture source URI (the schemes and their keys are listed below, and by "
                  "`transient sources`)")
@@ -110,7 +114,9 @@ int Run(int argc, char** argv) {
   app.add_flag("--uncalibrated", uncalibrated, "use no calibration at all");
   app.add_option("--listen", listen,
                  "address to serve on, host:port; port 0 picks a free one (see --port-file). "
-                 "Loopback by default: use 0.0.0.0:PORT to serve other machines")
+                 "Loopback by default; another address (0.0.0.0:PORT serves every network) "
+                 "needs --tls-cert and --tls-key with --token-file and/or --client-ca, or "
+                 "--insecure")
       ->capture_default_str();
   app.add_option("--config", config_path,
                  "reconstruction settings, `key = value` lines: range_method (mese|pisarenko), "
@@ -128,6 +134,19 @@ int Run(int argc, char** argv) {
       ->transform(CLI::AsSizeValue(/*kb_is_1000=*/true));
   app.add_option("--data-quota-files", quota.max_files,
                  "most files the data directory may hold (0 = no limit)");
+  app.add_option("--tls-cert", access_options.tls_cert_file,
+                 "serve TLS with this PEM certificate (chain); needs --tls-key");
+  app.add_option("--tls-key", access_options.tls_key_file,
+                 "the PEM private key of --tls-cert (not readable by others)");
+  app.add_option("--client-ca", access_options.client_ca_file,
+                 "every call needs a client certificate signed by this PEM CA (mutual TLS)");
+  app.add_option("--token-file", access_options.token_file,
+                 "every call needs `authorization: Bearer TOKEN`, TOKEN being this file's "
+                 "content (16..4096 printable bytes, not readable by others; e.g. "
+                 "`openssl rand -hex 32 > FILE`)");
+  app.add_flag("--insecure", access_options.insecure,
+               "allow --listen on a non-loopback address without TLS and authentication: anyone "
+               "who reaches the port may record, calibrate and reconfigure");
   app.add_option("--stats-interval", stats_interval_s, "seconds between stats lines in the log")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -152,6 +171,12 @@ int Run(int argc, char** argv) {
   // ends the recording it belongs to; the signal would end the daemon.
   signal(SIGXFSZ, SIG_IGN);
 
+  absl::StatusOr<Access> access = Access::Load(access_options, listen);
+  if (!access.ok()) {
+    std::cerr << "transientd: " << access.status().message() << "\n";
+    return 2;
+  }
+  auto shared_access = std::make_shared<const Access>(*std::move(access));
   absl::StatusOr<DataDir> data = DataDir::Open(data_dir, quota);
   if (!data.ok()) {
     std::cerr << "transientd: --data-dir: " << data.status().message() << "\n";
@@ -191,7 +216,9 @@ int Run(int argc, char** argv) {
     }
   }
   absl::StatusOr<std::unique_ptr<TransientServer>> server =
-      TransientServer::Start(pipeline->get(), {.listen = listen, .version = TRANSIENT_VERSION});
+      TransientServer::Start(pipeline->get(), {.listen = listen,
+                                               .version = TRANSIENT_VERSION,
+                                               .access = shared_access});
   if (!server.ok()) {
     std::cerr << "transientd: " << server.status().message() << "\n";
     return 2;
@@ -201,7 +228,8 @@ int Run(int argc, char** argv) {
                    "x", (*pipeline)->camera().geometry.height, ", ",
                    (*pipeline)->schedule().Describe(), "; calibration: ",
                    (*pipeline)->calibration_origin(), ") on ", (*server)->address(),
-                   "; files of clients go to ", data_dir_root));
+                   "; access: ", shared_access->Describe(), "; files of clients go to ",
+                   data_dir_root));
   if (!port_file.empty()) {
     // Written whole under a temporary name, so that a reader never sees a partial port.
     const std::string partial = port_file + ".partial";

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package that building, testing and the demo need.
+# Installs every Debian 12 package that building, testing and the demo need (openssl makes the
+# security tests' certificates; util-linux's unshare gives the full-disk test its own tmpfs).
 # Idempotent: apt-get skips what is already there. Uses sudo when not root.
 set -euo pipefail
 
@@ -16,6 +17,7 @@ packages=(
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   python3 python3-numpy python3-h5py python3-grpcio python3-protobuf python3-zstandard
+  openssl util-linux
 )
 
 sudo_cmd=()

@@ -12,6 +12,7 @@ and the daemon's refusals arrive as RpcError with their code and message.
 
 import os
 import shutil
+import subprocess
 import sys
 import threading
 import time
@@ -501,6 +502,106 @@ class Connecting(unittest.TestCase):
             ending.stop()
         finally:
             ending.kill()
+
+
+TOKEN = "0123456789abcdef0123456789abcdef"
+
+
+def write_secret(path, content):
+    with open(path, "w") as f:
+        f.write(content)
+    os.chmod(path, 0o600)
+
+
+class Security(unittest.TestCase):
+    """A daemon that requires a bearer token, and one with TLS: the Client's options."""
+
+    def test_a_token_is_sent_with_every_call(self):
+        workdir = os.path.join(os.environ["TRANSIENT_TEST_WORKDIR"], "token")
+        os.makedirs(workdir, exist_ok=True)
+        token_file = os.path.join(workdir, "token")
+        write_secret(token_file, TOKEN + "\n")
+        daemon = Daemon(os.environ["TRANSIENTD"], workdir,
+                        source="sim:mirrors?width=16&height=12",
+                        extra_args=["--uncalibrated", "--token-file", token_file])
+        try:
+            address = daemon.wait_until_serving()
+            with transient.Client(address) as anonymous:
+                with self.assertRaises(transient.RpcError) as caught:
+                    anonymous.info()
+                self.assertEqual(caught.exception.code.name, "UNAUTHENTICATED")
+                with self.assertRaises(transient.RpcError):
+                    next(anonymous.frames(["depth"]))
+            with transient.Client(address, token_file=token_file) as client:
+                self.assertTrue(client.info().access.token)
+                frame = next(f for f in client.frames(["depth"]) if not f.announcement)
+                self.assertEqual(frame.images["depth"].array.shape, (12, 16))
+                self.assertGreater(client.stats().frames_published, 0)
+            # Probes: health answers SERVING without the token; reflection, which could not
+            # check it, is off.
+            import grpc  # pylint: disable=import-outside-toplevel
+            with grpc.insecure_channel(address) as channel:
+                health = channel.unary_unary("/grpc.health.v1.Health/Check")(b"", timeout=10)
+                self.assertEqual(health, b"\x08\x01")
+                reflect = channel.stream_stream(
+                    "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo")
+                with self.assertRaises(grpc.RpcError) as caught:
+                    next(reflect(iter([b"\x3a\x00"]), timeout=10))
+                self.assertEqual(caught.exception.code(), grpc.StatusCode.UNIMPLEMENTED)
+            shared = os.path.join(workdir, "shared")
+            with open(shared, "w") as f:
+                f.write(TOKEN)
+            os.chmod(shared, 0o644)
+            with self.assertRaisesRegex(ValueError, "readable by every user"):
+                transient.Client(address, token_file=shared)
+            daemon.stop()
+        finally:
+            daemon.kill()
+
+    def test_tls_with_a_client_certificate(self):
+        workdir = os.path.join(os.environ["TRANSIENT_TEST_WORKDIR"], "tls")
+        os.makedirs(workdir, exist_ok=True)
+
+        def path(name):
+            return os.path.join(workdir, name)
+
+        def openssl(*args):
+            subprocess.run(["openssl", *args], check=True, capture_output=True)
+
+        ec = ["-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes"]
+        openssl("req", "-x509", *ec, "-days", "2", "-subj", "/CN=test ca", "-keyout",
+                path("ca.key"), "-out", path("ca.pem"))
+        with open(path("server.ext"), "w") as f:
+            f.write("subjectAltName=IP:127.0.0.1,DNS:localhost\n")
+        for name, ext in (("server", ["-extfile", path("server.ext")]), ("client", [])):
+            openssl("req", *ec, "-subj", f"/CN={name}", "-keyout", path(f"{name}.key"),
+                    "-out", path(f"{name}.csr"))
+            openssl("x509", "-req", "-in", path(f"{name}.csr"), "-CA", path("ca.pem"),
+                    "-CAkey", path("ca.key"), "-CAcreateserial", "-days", "2", "-out",
+                    path(f"{name}.pem"), *ext)
+        daemon = Daemon(os.environ["TRANSIENTD"], workdir,
+                        source="sim:mirrors?width=16&height=12",
+                        extra_args=["--uncalibrated", "--tls-cert", path("server.pem"),
+                                    "--tls-key", path("server.key"), "--client-ca",
+                                    path("ca.pem")])
+        try:
+            address = daemon.wait_until_serving()
+            with transient.Client(address, ca_file=path("ca.pem"), cert_file=path("client.pem"),
+                                  key_file=path("client.key")) as client:
+                access = client.info().access
+                self.assertTrue(access.tls and access.client_certificate)
+                frame = next(f for f in client.frames(["depth"]) if not f.announcement)
+                self.assertEqual(frame.images["depth"].array.shape, (12, 16))
+            with transient.Client(address, ca_file=path("ca.pem")) as uncertified:
+                with self.assertRaises(transient.RpcError) as caught:
+                    uncertified.info()
+                self.assertEqual(caught.exception.code.name, "UNAUTHENTICATED")
+            # Plain text to the TLS port never connects.
+            with self.assertRaises(transient.UnreachableError):
+                transient.Client(address, connect_timeout_s=1.0)
+            daemon.stop()
+        finally:
+            daemon.kill()
 
 
 if __name__ == "__main__":

@@ -52,7 +52,9 @@ class Daemon {
   // start = false: the server answers, but no frame is ever produced until pipeline().Start().
   // Without options.data_dir, the daemon writes into a scratch directory of its own, removed
   // with it.
-  explicit Daemon(PipelineOptions options, bool start = true) {
+  // `access`: TLS and the checks of every call (ServerOptions::access); nullptr = none.
+  explicit Daemon(PipelineOptions options, bool start = true,
+                  std::shared_ptr<const Access> access = nullptr) {
     if (options.data_dir == nullptr) {
       own_data_ = std::make_unique<::transient::testing::ScratchDirectory>();
       options.data_dir = DataDirAt(*own_data_);
@@ -63,7 +65,9 @@ class Daemon {
     if (!pipeline.ok()) return;
     pipeline_ = *std::move(pipeline);
     absl::StatusOr<std::unique_ptr<TransientServer>> server =
-        TransientServer::Start(pipeline_.get(), {.listen = "127.0.0.1:0", .version = "test"});
+        TransientServer::Start(pipeline_.get(), {.listen = "127.0.0.1:0",
+                                                 .version = "test",
+                                                 .access = std::move(access)});
     EXPECT_TRUE(server.ok()) << server.status();
     if (!server.ok()) return;
     server_ = *std::move(server);
@@ -84,6 +88,7 @@ class Daemon {
     return absl::StrCat(data_dir_->root(), "/", name);
   }
   std::string address() const { return absl::StrCat("127.0.0.1:", server_->port()); }
+  int port() const { return server_->port(); }
   std::unique_ptr<v1::Transient::Stub> Stub() { return Connect(server_->port()); }
 
   v1::Stats Stats() {

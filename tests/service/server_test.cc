@@ -669,8 +669,10 @@ TEST(TransientdBinary, BadOptionsExitTwoNamingTheProblem) {
       {{"--calibration", dir.File("none.h5")}, "none.h5"},
       {{"--uncalibrated", "--calibration", "x.h5"}, "exclude each other"},
       {{"--uncalibrated", "--source", "sim:mirrors?width=16&height=12", "--listen",
-        "256.1.1.1:1"},
+        "256.1.1.1:1", "--insecure"},
        "cannot listen on 256.1.1.1:1"},
+      {{"--uncalibrated", "--listen", "256.1.1.1:1"}, "serves other machines"},
+      {{"--uncalibrated", "--data-dir", "/dev/null"}, "--data-dir: data directory /dev/null"},
   };
   for (const auto& [args, message] : cases) {
     std::vector<std::string> argv = {TRANSIENTD_BINARY};

@@ -236,6 +236,28 @@ std::vector<uint16_t> Png16Values(const testing::RawPng& png) {
 // bits, so the low 13 of the float's 23 are zero (for 0.5..7 m every half is normal).
 bool IsHalfPrecision(float value) { return (std::bit_cast<uint32_t>(value) & 0x1fffu) == 0; }
 
+// `transient client --token-file` (docs/security.md): the token reaches the daemon with every
+// call; without it the daemon's UNAUTHENTICATED comes back, as any refusal does.
+TEST(RunClient, SendsTheTokenOfItsTokenFile) {
+  ScratchDirectory dir;
+  const std::string token = dir.File("token");
+  std::ofstream(token) << "fedcba9876543210fedcba9876543210\n";
+  std::filesystem::permissions(token, std::filesystem::perms::owner_read |
+                                          std::filesystem::perms::owner_write);
+  absl::StatusOr<service::Access> access =
+      service::Access::Load({.token_file = token}, "127.0.0.1:0");
+  ASSERT_THAT(access.status(), IsOk());
+  Daemon daemon(service::PipelineOptions{.source_uri = kSmallSim}, /*start=*/true,
+                std::make_shared<const service::Access>(*std::move(access)));
+  ClientArgs args = GoodArgs(dir.File("out"));
+  args.connect = daemon.address();
+  args.frames = 1;
+  EXPECT_THAT(RunClient(args).status(),
+              StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("bearer token")));
+  args.security.token_file = token;
+  EXPECT_THAT(RunClient(args).status(), IsOk());
+}
+
 TEST(RunClient, ReceivesTheAskedFramesAndWritesTheLastOne) {
   Daemon daemon(kSmallSim);
   ScratchDirectory dir;

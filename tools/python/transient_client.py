@@ -126,6 +126,13 @@ def main(argv=None):
     parser.add_argument("--compression", default="none", choices=["none", "zstd"])
     parser.add_argument("--max-rate", type=float, default=0.0,
                         help="frames per second at most; 0 = every frame")
+    security = parser.add_argument_group(
+        "security", "a daemon that requires TLS, a client certificate or a token")
+    security.add_argument("--ca", help="connect with TLS, trusting this PEM CA")
+    security.add_argument("--cert", help="PEM client certificate (needs --key, --ca)")
+    security.add_argument("--key", help="the PEM private key of --cert")
+    security.add_argument("--server-name", help="the name on the daemon's certificate")
+    security.add_argument("--token-file", help="send the bearer token in this file")
     args = parser.parse_args(argv)
     if args.frames < 1:
         parser.error(f"--frames = {args.frames}. Violated constraint: --frames >= 1")
@@ -157,7 +164,13 @@ def main(argv=None):
             raise ClientError("--out needs depth among --products (or --out '')")
         if args.compression == "zstd":
             transient.images.require_zstandard()
-        with transient.Client(args.connect, connect_timeout_s=CONNECT_TIMEOUT_S) as client:
+        try:
+            client = transient.Client(args.connect, connect_timeout_s=CONNECT_TIMEOUT_S,
+                                      ca_file=args.ca, cert_file=args.cert, key_file=args.key,
+                                      server_name=args.server_name, token_file=args.token_file)
+        except ValueError as error:
+            raise ClientError(str(error)) from None
+        with client:
             print_info(client.info(), pb2)
             depth = stream(client, args, products)
     except ClientError as error:

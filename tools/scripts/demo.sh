@@ -13,7 +13,7 @@ rm -rf "$out" && mkdir -p "$out"
 
 port_file="$out/transientd.port"
 "$transientd" --source sim:mirrors --listen 127.0.0.1:0 --port-file "$port_file" \
-  --stats-interval 2 2> "$out/transientd.log" &
+  --data-dir "$out/data" --stats-interval 2 2> "$out/transientd.log" &
 daemon=$!
 stop_daemon() {
   if kill -0 "$daemon" 2> /dev/null; then

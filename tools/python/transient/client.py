@@ -2,6 +2,8 @@
 calibration, recording and statistics (proto/transient/v1/transient.proto)."""
 
 import dataclasses
+import os
+import stat
 
 try:
     import grpc
@@ -81,18 +83,44 @@ class Client:
     Every RPC error raises RpcError with the gRPC code and the daemon's message.
     """
 
-    def __init__(self, address=DEFAULT_ADDRESS, *, connect_timeout_s=5.0, rpc_timeout_s=10.0):
+    def __init__(self, address=DEFAULT_ADDRESS, *, connect_timeout_s=5.0, rpc_timeout_s=10.0,
+                 ca_file=None, cert_file=None, key_file=None, server_name=None,
+                 token_file=None):
         """Connects to `address` (host:port), waiting at most connect_timeout_s seconds;
-        UnreachableError when no daemon answers by then. rpc_timeout_s is the deadline of each
-        call except the streams (frames, calibrate)."""
+        UnreachableError when no daemon answers by then (a TLS handshake the daemon refuses
+        never answers). rpc_timeout_s is the deadline of each call except the streams (frames,
+        calibrate).
+
+        For a daemon that requires them (transientd --tls-cert, --client-ca, --token-file;
+        docs/security.md), files, never the secrets themselves: ca_file, the PEM CA of the
+        daemon's certificate (TLS); cert_file and key_file, a PEM client certificate and its
+        key; server_name, the name the daemon's certificate carries when not the host of
+        `address`; token_file, the bearer token sent with every call. ValueError for a file
+        that cannot be used, naming it."""
         if not connect_timeout_s > 0:
             raise ValueError(f"connect_timeout_s = {connect_timeout_s}. Violated constraint: "
                              "connect_timeout_s > 0")
+        if bool(cert_file) != bool(key_file):
+            raise ValueError("cert_file, key_file: expected both or neither")
+        if not ca_file and (cert_file or server_name):
+            raise ValueError("ca_file: required with a client certificate or a server name")
         self.address = address
         self._rpc_timeout_s = rpc_timeout_s
+        self._metadata = ()
+        if token_file:
+            self._metadata = (("authorization", "Bearer " + _read_token(token_file)),)
         # Frames can exceed gRPC's default 4 MB message limit.
-        self._channel = grpc.insecure_channel(
-            address, options=[("grpc.max_receive_message_length", -1)])
+        options = [("grpc.max_receive_message_length", -1)]
+        if ca_file:
+            if server_name:
+                options.append(("grpc.ssl_target_name_override", server_name))
+            credentials = grpc.ssl_channel_credentials(
+                root_certificates=_read_file(ca_file, "ca_file"),
+                private_key=_read_file(key_file, "key_file", secret=True) if key_file else None,
+                certificate_chain=_read_file(cert_file, "cert_file") if cert_file else None)
+            self._channel = grpc.secure_channel(address, credentials, options=options)
+        else:
+            self._channel = grpc.insecure_channel(address, options=options)
         try:
             grpc.channel_ready_future(self._channel).result(timeout=connect_timeout_s)
         except grpc.FutureTimeoutError:
@@ -208,7 +236,8 @@ class Client:
                                        output_path=output_path, keep_current=keep_current)
         result = None
         try:
-            for message in self._stub.Calibrate(request, timeout=timeout_s):
+            for message in self._stub.Calibrate(request, timeout=timeout_s,
+                                                metadata=self._metadata):
                 if progress is not None:
                     progress(message.done, message.total)
                 if message.HasField("result"):
@@ -240,12 +269,14 @@ class Client:
 
     def _call(self, method, request):
         try:
-            return getattr(self._stub, method)(request, timeout=self._rpc_timeout_s)
+            return getattr(self._stub, method)(request, timeout=self._rpc_timeout_s,
+                                               metadata=self._metadata)
         except grpc.RpcError as error:
             raise _rpc_error(method, error) from error
 
     def _stream_frames(self, request, raw):
-        call = self._stub.StreamFrames(request)  # no deadline: it lasts until closed
+        # No deadline: it lasts until closed.
+        call = self._stub.StreamFrames(request, metadata=self._metadata)
         try:
             for message in call:
                 yield Frame.from_message(message, raw=raw)
@@ -255,6 +286,31 @@ class Client:
             raise _rpc_error("StreamFrames", error) from error
         finally:
             call.cancel()
+
+
+def _read_file(path, what, secret=False):
+    """A PEM file's bytes; ValueError naming `what` when it cannot be read, or when it is a
+    `secret` that every user of the machine may read."""
+    try:
+        if secret and os.stat(path).st_mode & stat.S_IROTH:
+            raise ValueError(f"{what} {path}: readable by every user of the machine "
+                             f"(chmod 600 {path})")
+        with open(path, "rb") as f:
+            return f.read()
+    except OSError as error:
+        raise ValueError(f"{what} {path}: cannot be read ({error.strerror})") from None
+
+
+def _read_token(path):
+    """The bearer token in `path` (transientd's rules, wire/credentials.h): 16..4096 printable
+    ASCII bytes without spaces, a trailing newline dropped, the file not readable by others."""
+    token = _read_file(path, "token_file", secret=True).rstrip(b"\r\n")
+    if not 16 <= len(token) <= 4096:
+        raise ValueError(f"token_file {path}: a token of {len(token)} bytes; expected 16..4096")
+    if any(c <= 0x20 or c > 0x7e for c in token):
+        raise ValueError(f"token_file {path}: the token holds a space, control or non-ASCII "
+                         "character")
+    return token.decode("ascii")
 
 
 def _rpc_error(method, error):

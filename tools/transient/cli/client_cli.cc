@@ -10,6 +10,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "tools/transient/cli/run_command.h"
+#include "tools/transient/cli/security_options.h"
 #include "tools/transient/cli/subcommand.h"
 #include "tools/transient/common/exit_status.h"
 #include "tools/transient/client/client_command.h"
@@ -59,6 +60,7 @@ CLI::App* AddClientCommand(CLI::App& app, ClientCommandLine& line) {
       "Exit codes: 0 done, 1 daemon unreachable or failed, 2 bad options, 130 interrupted (what\n"
       "arrived is written first).");
   ::transient::tools::ClientArgs& args = line.args;
+  AddSecurityOptions(command, &args.security);
   command->add_option("--connect", args.connect, "address of transientd, host:port or unix:PATH")
       ->capture_default_str();
   command

@@ -11,6 +11,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "tools/transient/cli/run_command.h"
+#include "tools/transient/cli/security_options.h"
 #include "tools/transient/cli/subcommand.h"
 #include "tools/transient/common/exit_status.h"
 #include "tools/transient/view/daemon_frame_source.h"
@@ -126,6 +127,7 @@ CLI::App* AddViewCommand(CLI::App& app, ViewCommandLine& line) {
                     "moment or capture input: do not compute the bounds");
   command->add_option("--calibration", args.calibration_path,
                       "capture input: calibration file (default: the embedded one)");
+  AddSecurityOptions(command, &args.security);
   command
       ->add_option("--connect-timeout", args.connect_timeout_s,
                    "daemon input: seconds to wait for transientd to accept the connection")

@@ -166,7 +166,10 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   summary.output_dir = args.output_dir;
 
   absl::StatusOr<client::Client> daemon = client::Client::Connect(
-      {.address = args.connect, .timeout_s = args.connect_timeout_s, .cancel = hooks.cancel});
+      {.address = args.connect,
+       .security = args.security,
+       .timeout_s = args.connect_timeout_s,
+       .cancel = hooks.cancel});
   if (!daemon.ok()) return daemon.status();
   absl::StatusOr<v1::Info> got_info = daemon->GetInfo();
   if (!got_info.ok()) return got_info.status();

@@ -11,6 +11,7 @@
 #include "absl/status/statusor.h"
 #include "tools/transient/client/client_summary.h"
 #include "tools/transient/common/command_hooks.h"
+#include "transient/client/client.h"
 #include "transient/wire/address.h"
 
 namespace transient::tools {
@@ -39,6 +40,7 @@ struct ClientArgs {
   bool zstd = false;                 // ask for zstd-compressed images
   double max_rate_hz = 0.0;          // at most this many frames a second; 0 = every frame
   double connect_timeout_s = 5.0;    // how long to wait for the daemon, > 0
+  client::ChannelSecurity security = {};  // TLS, client certificate, token (files)
 
   // moment_depth (MOMENT_DEPTH): the map asked for (v1::MomentDepthRequest), and the depth of
   // a virtual plane, facing the camera, whose occlusion by the real scene the client computes

@@ -186,7 +186,10 @@ absl::StatusOr<std::unique_ptr<DaemonFrameSource>> DaemonFrameSource::Receive(
   if (absl::Status status = options.Validate(); !status.ok()) return status;
   const std::string& address = options.address;
   absl::StatusOr<client::Client> daemon = client::Client::Connect(
-      {.address = address, .timeout_s = options.connect_timeout_s, .cancel = cancel});
+      {.address = address,
+       .security = options.security,
+       .timeout_s = options.connect_timeout_s,
+       .cancel = cancel});
   if (!daemon.ok()) return daemon.status();
   absl::StatusOr<v1::Info> info = daemon->GetInfo();
   if (!info.ok()) return info.status();

@@ -15,6 +15,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "tools/transient/view/point_cloud.h"
+#include "transient/client/client.h"
 #include "transient/formats/transient_frame.h"
 
 namespace transient::tools {
@@ -34,6 +35,7 @@ struct DaemonSourceOptions {
   int64_t frames = 4;        // frames with images to receive, 1..kMaxDaemonFrames
   int bins = 64;  // SLICES and CUMULATIVE uniform over one period, 1..wire::kMaxSlices
   double connect_timeout_s = 5.0;
+  client::ChannelSecurity security = {};  // TLS, client certificate, token (files)
 
   // The message names the option (--frames, --bins, --connect-timeout), the value and the rule.
   absl::Status Validate() const;

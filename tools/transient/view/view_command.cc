@@ -30,7 +30,8 @@ DaemonSourceOptions DaemonOptionsOf(const ViewArgs& args) {
   return {.address = args.input_path.substr(absl::string_view(kDaemonInputPrefix).size()),
           .frames = args.daemon_frames,
           .bins = args.bins,
-          .connect_timeout_s = args.connect_timeout_s};
+          .connect_timeout_s = args.connect_timeout_s,
+          .security = args.security};
 }
 
 // A daemon input: the frames are received first, then drawn like a file's.

@@ -18,6 +18,7 @@
 #include "tools/transient/view/moment_pictures.h"
 #include "tools/transient/view/point_cloud.h"
 #include "tools/transient/view/view_pictures.h"
+#include "transient/client/client.h"
 
 namespace transient::tools {
 
@@ -70,6 +71,7 @@ struct ViewArgs {
   // SLICES of `bins` uniform bins, at most 1024), and how long to wait for the connection.
   int64_t daemon_frames = 4;
   double connect_timeout_s = 5.0;
+  client::ChannelSecurity security = {};  // TLS, client certificate, token (files)
 
   std::string camera_path = {};  // capture file whose /camera intrinsics place the points
   PlyFormat ply_format = PlyFormat::kBinary;

@@ -18,15 +18,26 @@
 
 namespace transient::client {
 
+// How to reach a daemon that requires TLS or authentication (transientd --tls-cert,
+// --client-ca, --token-file; docs/security.md). Files, never the secrets themselves.
+struct ChannelSecurity {
+  std::string ca_file = {};      // PEM CA of the daemon's certificate: TLS; "" = plain text
+  std::string cert_file = {};    // PEM client certificate (mutual TLS); with key_file and ca_file
+  std::string key_file = {};     // its private key
+  std::string server_name = {};  // the name the daemon's certificate must carry; "" = the host
+  std::string token_file = {};   // sent with every call as `authorization: Bearer <token>`
+};
+
 struct ConnectOptions {
   std::string address;  // gRPC target of transientd: host:port, or unix:PATH
+  ChannelSecurity security = {};
   double timeout_s = 5.0;       // to wait for the connection, > 0
   double call_timeout_s = 10.0;  // deadline of each unary call (not of streams), > 0
   // Connecting gives up with Cancelled when *cancel turns true. May be null.
   const std::atomic<bool>* cancel = nullptr;
 
   // InvalidArgument naming the field, the value and the rule: a non-empty address, finite
-  // timeouts > 0.
+  // timeouts > 0, a client certificate with its key and a CA, a server name with a CA.
   absl::Status Validate() const;
 };
 
@@ -37,7 +48,9 @@ using CalibrateProgressFn = std::function<void(int done, int total)>;
 class Client {
  public:
   // Opens a channel (no limit on the size of a received message: a frame of many full-sensor
-  // slices is large) and waits until it is connected. Unavailable "cannot reach transientd at
+  // slices is large; TLS and the token as options.security says, the files read here with
+  // InvalidArgument naming the field when one cannot be used) and waits until it is connected
+  // (a TLS handshake the daemon refuses never connects). Unavailable "cannot reach transientd at
   // ADDR within T s" when it is not within options.timeout_s; Cancelled "interrupted while
   // connecting to transientd at ADDR" when *options.cancel turns true first.
   [[nodiscard]] static absl::StatusOr<Client> Connect(const ConnectOptions& options);

@@ -7,6 +7,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
+#include "transient/service/access.h"
 #include "transient/service/pipeline.h"
 #include "transient/wire/address.h"
 
@@ -19,6 +20,10 @@ namespace transient::service {
 struct ServerOptions {
   std::string listen = wire::kDefaultAddress;  // host:port; port 0 = one chosen by the system
   std::string version = "";
+  // Credentials and the check of every transient.v1 call (health checking answers without;
+  // reflection is off when calls need a token or a client certificate); nullptr = plain text,
+  // every call accepted (Access::Load decides whether that may serve `listen`).
+  std::shared_ptr<const Access> access = nullptr;
 };
 
 class TransientServer {
