@@ -1,6 +1,8 @@
 // Aligning a V4L2 raw-phase stream into whole phase sequences (sequence_assembler.h).
 #include "v4l2/sequence_assembler.h"
 
+#include <cstdint>
+
 #include "absl/strings/str_cat.h"
 
 namespace transient::v4l2 {
@@ -133,7 +135,13 @@ Placement SequenceAssembler::Add(const DequeuedBuffer& buffer) {
     const uint32_t step = buffer.sequence - last_->sequence;  // modulo 2^32, like the driver's
     continuous = step == 1;
     if (step > 1 && step < (uint32_t{1} << 31)) counters_.driver_frames_lost += step - 1;
-    gap_before = options_.gap_ns > 0 && buffer.timestamp_ns - last_->timestamp_ns > options_.gap_ns;
+    // A driver's timestamps may jump anywhere (found by fuzzing: a difference past int64):
+    // one that overflows forward is a gap, backward none.
+    int64_t elapsed_ns = 0;
+    if (__builtin_sub_overflow(buffer.timestamp_ns, last_->timestamp_ns, &elapsed_ns)) {
+      elapsed_ns = buffer.timestamp_ns > last_->timestamp_ns ? INT64_MAX : INT64_MIN;
+    }
+    gap_before = options_.gap_ns > 0 && elapsed_ns > options_.gap_ns;
   }
   // A driver sequence that did not move forward (a restart we were not told of) counts from
   // this buffer again.

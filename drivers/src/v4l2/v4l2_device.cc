@@ -101,6 +101,18 @@ std::string DescribeControlValue(const ControlDescription& control,
 
 namespace {
 
+// A buffer's timestamp in nanoseconds, saturated at int64's ends: a driver may report any
+// seconds, and 2^63 ns is 292 years.
+int64_t TimevalNanoseconds(const timeval& time) {
+  int64_t seconds_ns = 0, nanoseconds = 0;
+  if (__builtin_mul_overflow(int64_t{time.tv_sec}, int64_t{1'000'000'000}, &seconds_ns) ||
+      __builtin_mul_overflow(int64_t{time.tv_usec}, int64_t{1000}, &nanoseconds) ||
+      __builtin_add_overflow(seconds_ns, nanoseconds, &seconds_ns)) {
+    return time.tv_sec < 0 ? INT64_MIN : INT64_MAX;
+  }
+  return seconds_ns;
+}
+
 // Array controls (U8/U16/U32, the ToF controls) carry their elements behind a pointer;
 // the others in value / value64.
 size_t ElementBytes(const ControlDescription& control) {
@@ -527,8 +539,7 @@ absl::StatusOr<DequeuedFrame> V4l2Device::Dequeue(absl::Duration timeout) {
       DequeuedFrame frame;
       frame.index = static_cast<int>(buffer.index);
       frame.buffer.sequence = buffer.sequence;
-      frame.buffer.timestamp_ns =
-          int64_t{buffer.timestamp.tv_sec} * 1'000'000'000 + int64_t{buffer.timestamp.tv_usec} * 1000;
+      frame.buffer.timestamp_ns = TimevalNanoseconds(buffer.timestamp);
       frame.buffer.error_flag = (buffer.flags & V4L2_BUF_FLAG_ERROR) != 0;
       frame.buffer.bytes_used = buffer.bytesused;
       frame.data = std::span<const uint8_t>(static_cast<const uint8_t*>(mapping.address),

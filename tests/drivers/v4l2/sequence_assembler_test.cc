@@ -164,6 +164,20 @@ TEST(SequenceAssembler, PauseAlignmentWaitsForTheFirstPause) {
   EXPECT_EQ(assembler.counters().discarded_buffers, 2);
 }
 
+// A driver's timestamps may jump from one end of int64 to the other (found by fuzzing,
+// tests/fuzz/v4l2_fuzz.cc: the difference overflowed). A jump forward is a pause, one backward
+// none, and nothing overflows (UBSan would fail the test).
+TEST(SequenceAssembler, TimestampsAtTheEndsOfInt64AreAPauseForwardAndNoneBackward) {
+  SequenceAssembler assembler(Options(Alignment::kGap, 2));
+  const Fates fates =
+      AddAll(assembler, {Buffer(0, INT64_MIN), Buffer(1, INT64_MAX), Buffer(2, INT64_MAX),
+                         Buffer(3, INT64_MIN), Buffer(4, INT64_MIN + kFrameNs)});
+  // The jump forward starts a sequence (0, 1); the jump back is no pause, so the buffer after
+  // the whole sequence cannot start one.
+  EXPECT_EQ(fates.phases, (std::vector<int>{-1, 0, 1, -1, -1}));
+  EXPECT_EQ(assembler.counters().sequences, 1);
+}
+
 TEST(SequenceAssembler, PauseAlignmentDropsShortOverlongAndBrokenSequences) {
   SequenceAssembler assembler(Options(Alignment::kGap, 4));
   std::vector<DequeuedBuffer> stream = {Buffer(0, 0)};  // the tail of a sequence before ours
