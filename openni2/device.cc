@@ -541,8 +541,11 @@ void Device::Receive() {
       wake_.wait_for(lock, std::chrono::milliseconds(500), [this] { return stopping_; });
       if (stopping_) return;
     }
-    absl::StatusOr<client::Client> again = client::Client::Connect(
-        {.address = uri_.address, .timeout_s = 1.0, .cancel = &cancel_connect_});
+    absl::StatusOr<client::Client> again =
+        client::Client::Connect({.address = uri_.address,
+                                 .security = SecurityFromEnvironment(),
+                                 .timeout_s = 1.0,
+                                 .cancel = &cancel_connect_});
     if (again.ok()) reconnected.emplace(*std::move(again));
   }
 }

@@ -1,6 +1,7 @@
 #include "device_uri.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <vector>
 
 #include "absl/strings/match.h"
@@ -27,6 +28,18 @@ bool ParseSize(absl::string_view text, int* width, int* height) {
 }  // namespace
 
 std::string DeviceUriOf(absl::string_view address) { return absl::StrCat(kUriScheme, address); }
+
+client::ChannelSecurity SecurityFromEnvironment() {
+  auto variable = [](const char* name) {
+    const char* value = std::getenv(name);
+    return value == nullptr ? std::string() : std::string(value);
+  };
+  return {.ca_file = variable("TRANSIENT_OPENNI2_CA_FILE"),
+          .cert_file = variable("TRANSIENT_OPENNI2_CERT_FILE"),
+          .key_file = variable("TRANSIENT_OPENNI2_KEY_FILE"),
+          .server_name = variable("TRANSIENT_OPENNI2_SERVER_NAME"),
+          .token_file = variable("TRANSIENT_OPENNI2_TOKEN_FILE")};
+}
 
 absl::StatusOr<DeviceUri> ParseDeviceUri(absl::string_view uri) {
   if (!absl::StartsWith(uri, kUriScheme)) {

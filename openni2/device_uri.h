@@ -11,6 +11,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "transient/client/client.h"
 #include "transient/openni2/oni_frames.h"
 
 namespace transient::openni2 {
@@ -27,6 +28,11 @@ struct DeviceUri {
 
 // The URI of the daemon at `address` with no keys.
 std::string DeviceUriOf(absl::string_view address);
+
+// How the driver reaches a daemon that requires TLS or a token (docs/security.md): from the
+// environment of the application, which cannot pass options to a driver. Files, never secrets:
+// TRANSIENT_OPENNI2_CA_FILE, _CERT_FILE, _KEY_FILE, _SERVER_NAME, _TOKEN_FILE.
+client::ChannelSecurity SecurityFromEnvironment();
 
 // InvalidArgument naming the part that is wrong (an empty address, an unknown key, a bad value);
 // NotFound when `uri` is not a transient:// URI (another driver's).

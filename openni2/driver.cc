@@ -30,8 +30,11 @@ struct Probe {
   v1::Info info;
 };
 absl::StatusOr<Probe> ProbeDaemon(const std::string& address, double timeout_s) {
-  absl::StatusOr<client::Client> daemon = client::Client::Connect(
-      {.address = address, .timeout_s = timeout_s, .call_timeout_s = timeout_s});
+  absl::StatusOr<client::Client> daemon =
+      client::Client::Connect({.address = address,
+                               .security = SecurityFromEnvironment(),
+                               .timeout_s = timeout_s,
+                               .call_timeout_s = timeout_s});
   if (!daemon.ok()) return daemon.status();
   absl::StatusOr<v1::Info> info = daemon->GetInfo();
   if (!info.ok()) return info.status();

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -110,6 +111,31 @@ TEST(OpenNi2Driver, AProgramWithOnlyOpenNiReadsTheDaemonsDepthInMillimetres) {
     EXPECT_GT(frame.timestamp_us, previous_timestamp) << "timestamps increase";
     previous_timestamp = frame.timestamp_us;
   }
+}
+
+// A daemon that requires a token (docs/security.md): an OpenNI2 program finds no device without
+// TRANSIENT_OPENNI2_TOKEN_FILE, and reads depth with it.
+TEST(OpenNi2Driver, ADaemonWithATokenIsOpenedWithTheTokenFileOfTheEnvironment) {
+  ScratchDirectory scratch;
+  const std::string token = scratch.File("token");
+  std::ofstream(token) << "0123456789abcdef0123456789abcdef\n";
+  std::filesystem::permissions(token, std::filesystem::perms::owner_read |
+                                          std::filesystem::perms::owner_write);
+  Daemon daemon(scratch, 0, {"--token-file", token});
+  ASSERT_GT(daemon.port(), 0);
+  const std::string out = scratch.File("frames.bin");
+  const std::vector<std::string> args = {"live", daemon.uri(), "2", out,
+                                         absl::StrCat(kWidth, "x", kHeight), "mm"};
+  unsetenv("TRANSIENT_OPENNI2_TOKEN_FILE");
+  const ProcessResult refused = RunReader(args);
+  EXPECT_NE(refused.exit_code, 0) << refused.out;
+  setenv("TRANSIENT_OPENNI2_TOKEN_FILE", token.c_str(), 1);
+  const ProcessResult reader = RunReader(args);
+  unsetenv("TRANSIENT_OPENNI2_TOKEN_FILE");
+  ASSERT_EQ(reader.exit_code, 0) << reader.err;
+  const std::vector<ReaderFrame> frames = ReadFrames(out);
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_GT(CountNonZero(frames[0].pixels), kWidth * kHeight / 2) << "the scene has depth";
 }
 
 TEST(OpenNi2Driver, ARecordingOfTheDevicePlaysBackEveryRecordedFrame) {

@@ -34,11 +34,11 @@ inline constexpr int kWidth = 80, kHeight = 60;
 // transientd on the simulated camera, on a port of the system's choice (or the one given).
 class Daemon {
  public:
-  explicit Daemon(const ScratchDirectory& scratch, int port = 0)
+  // `extra`: more options of transientd (a --token-file).
+  explicit Daemon(const ScratchDirectory& scratch, int port = 0,
+                  const std::vector<std::string>& extra = {})
       : port_file_(scratch.File(absl::StrCat("port", port))),
-        process_({TRANSIENTD_BINARY, "--source", kScene, "--listen",
-                  absl::StrCat("127.0.0.1:", port), "--port-file", port_file_},
-                 scratch.File("transientd.log")) {
+        process_(Arguments(scratch, port, port_file_, extra), scratch.File("transientd.log")) {
     port_ = WaitForPortFile(port_file_);
   }
   int port() const { return port_; }
@@ -47,6 +47,17 @@ class Daemon {
   void Kill() { process_.Signal(SIGKILL), process_.Wait(); }
 
  private:
+  static std::vector<std::string> Arguments(const ScratchDirectory& scratch, int port,
+                                            const std::string& port_file,
+                                            const std::vector<std::string>& extra) {
+    std::vector<std::string> argv = {TRANSIENTD_BINARY, "--source",    kScene,
+                                     "--listen",        absl::StrCat("127.0.0.1:", port),
+                                     "--port-file",     port_file,
+                                     "--data-dir",      scratch.File("data")};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return argv;
+  }
+
   std::string port_file_;
   ChildProcess process_;
   int port_ = 0;
