@@ -6,7 +6,7 @@ PREFIX ?= /usr/local
 CMAKE_FLAGS ?=
 BENCH_ARGS ?=
 
-.PHONY: deps build install test demo demo-files pictures eval bench clean
+.PHONY: deps build install test demo demo-files pictures eval bench fuzz clean
 
 deps:
 	bash tools/install_deps.sh
@@ -54,10 +54,17 @@ pictures: build
 eval: build
 	$(TRANSIENT) eval --out out/eval
 
+# The libFuzzer harnesses (tests/fuzz, docs/fuzzing.md), each for FUZZ_SECONDS (FUZZ_RUNS caps
+# the executions; FUZZ_HARNESSES picks some), in build-fuzz/ (Clang, ASan + UBSan).
+FUZZ_SECONDS ?= 60
+FUZZ_HARNESSES ?=
+fuzz: deps
+	RUNS=$(FUZZ_RUNS) bash tools/scripts/fuzz.sh build-fuzz $(FUZZ_SECONDS) $(FUZZ_HARNESSES)
+
 bench: deps
 	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_BENCHMARKS=ON $(CMAKE_FLAGS)
 	cmake --build $(BUILD_DIR) -j $(JOBS) --target transient_bench
 	$(BUILD_DIR)/tests/bench/transient_bench $(BENCH_ARGS)
 
 clean:
-	rm -rf $(BUILD_DIR) $(ASAN_DIR) out
+	rm -rf $(BUILD_DIR) $(ASAN_DIR) build-fuzz out

@@ -73,8 +73,7 @@ absl::StatusOr<Access> Access::Load(const AccessOptions& options, const std::str
       (!access.tls() || (!access.token_required() && !access.client_certificate_required()))) {
     return absl::InvalidArgumentError(absl::StrCat(
         "--listen ", listen, " serves other machines, ",
-        access.tls() ? "with TLS but without authentication"
-                     : "without TLS or authentication",
+        access.tls() ? "with TLS but without authentication" : "without TLS or authentication",
         ": give --tls-cert and --tls-key with --token-file and/or --client-ca, or --insecure "
         "to serve anyone who reaches the port (they could record, calibrate and reconfigure)"));
   }
@@ -112,8 +111,7 @@ grpc::Status Access::Authorize(const grpc::ServerContext& context) const {
     const absl::string_view prefix = wire::kBearerPrefix;
     const bool bearer = absl::StartsWith(value, prefix);
     if (!wire::TokensEqual(bearer ? value.substr(prefix.size()) : absl::string_view(), token_)) {
-      return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
-                          "transientd refuses the bearer token");
+      return grpc::Status(grpc::StatusCode::UNAUTHENTICATED, "transientd refuses the bearer token");
     }
   }
   return grpc::Status::OK;

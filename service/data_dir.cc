@@ -39,8 +39,7 @@ absl::StatusOr<DataDir> DataDir::Open(const std::string& root, DataQuota quota) 
   if (root.empty()) return absl::InvalidArgumentError("data directory: expected a path");
   std::error_code error;
   if (std::filesystem::exists(root, error) && !std::filesystem::is_directory(root, error)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("data directory ", root, ": not a directory"));
+    return absl::InvalidArgumentError(absl::StrCat("data directory ", root, ": not a directory"));
   }
   std::filesystem::create_directories(root, error);
   if (error) {
@@ -56,27 +55,39 @@ absl::StatusOr<DataDir> DataDir::Open(const std::string& root, DataQuota quota) 
     return FileSystemError(errno, absl::StrCat("data directory ", root));
   }
   if (!S_ISDIR(info.st_mode)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("data directory ", root, ": not a directory"));
+    return absl::InvalidArgumentError(absl::StrCat("data directory ", root, ": not a directory"));
+  }
+  // Another user who may write there could place a link or a crafted file for a client to
+  // name (a corrupt HDF5 file can crash the library itself: docs/fuzzing.md).
+  if ((info.st_mode & S_IWOTH) != 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "data directory ", root, ": writable by every user of the machine (chmod o-w ", root, ")"));
   }
   return DataDir(canonical.string(), quota);
 }
 
 absl::StatusOr<std::string> DataDir::NewFilePath(absl::string_view field,
                                                  absl::string_view name) const {
+  return Resolve(field, name, /*existing=*/false);
+}
+
+absl::StatusOr<std::string> DataDir::ExistingFilePath(absl::string_view field,
+                                                      absl::string_view name) const {
+  return Resolve(field, name, /*existing=*/true);
+}
+
+absl::StatusOr<std::string> DataDir::Resolve(absl::string_view field, absl::string_view name,
+                                             bool existing) const {
+  const char* const expected = existing
+                                   ? "; expected an existing file's name in the data directory"
+                                   : "; expected a new file's name relative to the data directory";
   auto refuse = [&](absl::string_view why) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(field, " = \"", name, "\": ", why,
-                     "; expected a new file's name relative to the data directory"));
+    return absl::InvalidArgumentError(absl::StrCat(field, " = \"", name, "\": ", why, expected));
   };
-  if (name.empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(field, ": expected a new file's name relative to the data directory"));
-  }
+  if (name.empty()) return absl::InvalidArgumentError(absl::StrCat(field, ":", expected + 1));
   if (name.size() > kMaxNameBytes) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": ", name.size(),
-                                                   " bytes long; expected at most ",
-                                                   kMaxNameBytes));
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": ", name.size(), " bytes long; expected at most ", kMaxNameBytes));
   }
   for (char c : name) {
     if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
@@ -100,13 +111,13 @@ absl::StatusOr<std::string> DataDir::NewFilePath(absl::string_view field,
     absl::StrAppend(&path, "/", components[i]);
     const bool last = i + 1 == components.size();
     if (::lstat(path.c_str(), &info) != 0) {
-      if (errno == ENOENT && last) return path;
+      if (errno == ENOENT && last && !existing) return path;
       if (errno == ENOENT) {
         return absl::NotFoundError(absl::StrCat(
-            field, " = \"", name, "\": no directory \"",
+            field, " = \"", name, "\": no ", last ? "file" : "directory", " \"",
             absl::string_view(name.data(), static_cast<size_t>(components[i].data() +
                                                                components[i].size() - name.data())),
-            "\" in the data directory (none is created)"));
+            "\" in the data directory", last ? "" : " (none is created)"));
       }
       return FileSystemError(errno, absl::StrCat(field, " = \"", name, "\""));
     }
@@ -118,6 +129,7 @@ absl::StatusOr<std::string> DataDir::NewFilePath(absl::string_view field,
       continue;
     }
     if (S_ISREG(info.st_mode)) {
+      if (existing) return path;
       return absl::AlreadyExistsError(absl::StrCat(
           field, " = \"", name, "\": exists in the data directory; nothing is ever replaced"));
     }
@@ -149,9 +161,9 @@ absl::Status DataDir::CheckRoom(uint64_t min_bytes) const {
   if (quota_.max_bytes == 0 && quota_.max_files == 0) return absl::OkStatus();
   const DataUsage usage = Usage();
   if (quota_.max_files > 0 && usage.files >= quota_.max_files) {
-    return absl::ResourceExhaustedError(
-        absl::StrCat("the data directory ", root_, " holds ", usage.files,
-                     " files, its quota is ", quota_.max_files));
+    return absl::ResourceExhaustedError(absl::StrCat("the data directory ", root_, " holds ",
+                                                     usage.files, " files, its quota is ",
+                                                     quota_.max_files));
   }
   if (quota_.max_bytes > 0 &&
       (usage.bytes >= quota_.max_bytes || quota_.max_bytes - usage.bytes < min_bytes)) {

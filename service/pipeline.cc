@@ -7,6 +7,7 @@
 #include <set>
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
@@ -24,6 +25,34 @@ namespace transient::service {
 namespace {
 
 constexpr absl::Duration kNextTimeout = absl::Milliseconds(100);
+
+// What a client may name as Calibrate's source (docs/security.md): the stream's own source, a
+// simulator (it reads no file), or a recording of the data directory, `replay:NAME?keys` with
+// NAME resolved there (DataDir::ExistingFilePath). Anything else, a file elsewhere or another
+// device, is InvalidArgument: a client must not make the daemon read what the operator did not
+// give it (a crafted HDF5 file can hang the library, docs/fuzzing.md).
+absl::StatusOr<std::string> ClientCalibrationSource(const std::string& uri,
+                                                    const std::string& stream_uri,
+                                                    const DataDir* data_dir) {
+  if (uri == stream_uri || absl::StartsWith(uri, "sim:")) return uri;
+  constexpr absl::string_view kReplay = "replay:";
+  if (absl::StartsWith(uri, kReplay)) {
+    const size_t query = uri.find('?');
+    const std::string name =
+        uri.substr(kReplay.size(), query == std::string::npos ? std::string::npos
+                                                              : query - kReplay.size());
+    if (data_dir == nullptr) {
+      return absl::FailedPreconditionError(
+          "source_uri: a replay must be in the data directory, and this daemon has none");
+    }
+    absl::StatusOr<std::string> path = data_dir->ExistingFilePath("source_uri", name);
+    if (!path.ok()) return path.status();
+    return absl::StrCat(kReplay, *path, query == std::string::npos ? "" : uri.substr(query));
+  }
+  return absl::InvalidArgumentError(absl::StrCat(
+      "source_uri = \"", uri, "\": a client may name the stream's source (", stream_uri,
+      "), a simulator (sim:...) or a recording in the data directory (replay:NAME)"));
+}
 
 }  // namespace
 
@@ -629,6 +658,12 @@ absl::StatusOr<CalibrationOutcome> Pipeline::Calibrate(
         schedule->options().MissingHarmonicsText(
             "a calibration (per-pixel factors of the moments against a Dirac at zero)"),
         "; ", stream_uri, " needs none"));
+  }
+  if (!uri.empty()) {
+    absl::StatusOr<std::string> allowed =
+        ClientCalibrationSource(uri, stream_uri, impl_->options.data_dir.get());
+    if (!allowed.ok()) return allowed.status();
+    uri = *std::move(allowed);
   }
   if (uri.empty()) {
     absl::StatusOr<std::string> derived = CalibrationSourceFor(stream_uri);

@@ -2,6 +2,7 @@
 #include "transient/service/reconstruction_config.h"
 
 #include <fstream>
+#include <sstream>
 #include <vector>
 
 #include "absl/strings/ascii.h"
@@ -44,8 +45,16 @@ std::string DescribeConfig(const ReconstructionConfig& config) {
 absl::Status ReadConfigFile(const std::string& path, ReconstructionConfig* config) {
   std::ifstream in(path);
   if (!in) return absl::NotFoundError(absl::StrCat(path, ": cannot be read"));
-  std::string line;
-  for (int number = 1; std::getline(in, line); ++number) {
+  std::ostringstream content;
+  content << in.rdbuf();
+  return ParseConfig(content.str(), path, config);
+}
+
+absl::Status ParseConfig(absl::string_view content, absl::string_view path,
+                         ReconstructionConfig* config) {
+  int number = 0;
+  for (absl::string_view line : absl::StrSplit(content, '\n')) {
+    ++number;
     absl::string_view text = line;
     if (size_t hash = text.find('#'); hash != absl::string_view::npos) text = text.substr(0, hash);
     text = absl::StripAsciiWhitespace(text);

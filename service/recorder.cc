@@ -28,7 +28,7 @@ absl::StatusOr<RecordingStatus> Recorder::Start(
   }
   if (std::filesystem::exists(path)) {
     return absl::AlreadyExistsError(
-        absl::StrCat("path: ", path, " exists; a recording never replaces a file"));
+        absl::StrCat("path: ", target.name, " exists; a recording never replaces a file"));
   }
   auto pending = std::make_shared<PendingStart>();
   pending->target = target;

@@ -425,7 +425,8 @@ class TransientServer::Service final : public v1::Transient::Service {
   Service(Pipeline* pipeline, std::string version, std::shared_ptr<const Access> access)
       : pipeline_(pipeline), version_(std::move(version)), access_(std::move(access)) {}
 
-  grpc::Status GetInfo(grpc::ServerContext* context, const v1::GetInfoRequest*, v1::Info* info) override {
+  grpc::Status GetInfo(grpc::ServerContext* context, const v1::GetInfoRequest*,
+                       v1::Info* info) override {
     if (grpc::Status denied = Authorize(*context); !denied.ok()) return denied;
     const CameraInfo& camera = pipeline_->camera();
     v1::CameraInfo* c = info->mutable_camera();
@@ -544,7 +545,8 @@ class TransientServer::Service final : public v1::Transient::Service {
     return grpc::Status::OK;
   }
 
-  grpc::Status StartRecording(grpc::ServerContext* context, const v1::StartRecordingRequest* request,
+  grpc::Status StartRecording(grpc::ServerContext* context,
+                              const v1::StartRecordingRequest* request,
                               v1::Recording* out) override {
     if (grpc::Status denied = Authorize(*context); !denied.ok()) return denied;
     if (request->deflate_level() > 9) {

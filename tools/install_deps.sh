@@ -17,7 +17,7 @@ packages=(
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   python3 python3-numpy python3-h5py python3-grpcio python3-protobuf python3-zstandard
-  openssl util-linux
+  openssl util-linux libfuzzer-15-dev
 )
 
 sudo_cmd=()

@@ -47,9 +47,9 @@ absl::StatusOr<std::string> ReadTokenFile(absl::string_view what, const std::str
   if (!token.ok()) return token.status();
   while (!token->empty() && (token->back() == '\n' || token->back() == '\r')) token->pop_back();
   if (token->size() < kMinTokenBytes || token->size() > kMaxTokenBytes) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        what, " ", path, ": a token of ", token->size(), " bytes; expected ", kMinTokenBytes,
-        "..", kMaxTokenBytes, " (e.g. `openssl rand -hex 32`)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, " ", path, ": a token of ", token->size(), " bytes; expected ",
+                     kMinTokenBytes, "..", kMaxTokenBytes, " (e.g. `openssl rand -hex 32`)"));
   }
   for (char c : *token) {
     if (c <= ' ' || c > '~') {

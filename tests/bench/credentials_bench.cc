@@ -23,8 +23,8 @@ std::string Given(int64_t differs_at) {
 // Argument: where the given token first differs (-1: nowhere, it is right).
 void BM_TokensEqual(benchmark::State& state) {
   const std::string given = Given(state.range(0));
-  state.SetLabel(state.range(0) < 0 ? "right token" : "wrong at byte " +
-                                                        std::to_string(state.range(0)));
+  state.SetLabel(state.range(0) < 0 ? "right token"
+                                    : "wrong at byte " + std::to_string(state.range(0)));
   for (auto _ : state) {
     benchmark::DoNotOptimize(wire::TokensEqual(given, kToken));
   }

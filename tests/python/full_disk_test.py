@@ -65,8 +65,8 @@ def fill(directory):
 def run(workdir):
     data = os.path.join(workdir, "data")
     os.makedirs(data)
-    subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={TMPFS_BYTES}", "transient-test", data],
-                   check=True)
+    subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={TMPFS_BYTES},mode=0700",
+                    "transient-test", data], check=True)
     daemon = Daemon(os.environ["TRANSIENTD"], workdir, source=SOURCE,
                     extra_args=["--uncalibrated"], data_dir=data)
     try:

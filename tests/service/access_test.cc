@@ -153,9 +153,20 @@ class Certificates {
     Run({"openssl", "req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes",
          "-subj", absl::StrCat("/CN=", name), "-keyout", File(name, "key"), "-out",
          File(name, "csr")});
-    std::vector<std::string> argv = {"openssl", "x509", "-req", "-in", File(name, "csr"), "-CA",
-                                     File(ca, "pem"), "-CAkey", File(ca, "key"),
-                                     "-CAcreateserial", "-days", "2", "-out", File(name, "pem")};
+    std::vector<std::string> argv = {"openssl",
+                                     "x509",
+                                     "-req",
+                                     "-in",
+                                     File(name, "csr"),
+                                     "-CA",
+                                     File(ca, "pem"),
+                                     "-CAkey",
+                                     File(ca, "key"),
+                                     "-CAcreateserial",
+                                     "-days",
+                                     "2",
+                                     "-out",
+                                     File(name, "pem")};
     if (!extension.empty()) {
       WriteFile(File(name, "ext"), extension + "\n", 0644);
       argv.insert(argv.end(), {"-extfile", File(name, "ext")});
@@ -213,7 +224,8 @@ std::string HealthCheck(const Daemon& daemon) {
   generic.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
                     &response, [&done](grpc::Status status) { done.set_value(status); });
   const grpc::Status status = done.get_future().get();
-  if (!status.ok()) return absl::StrCat("status ", status.error_code(), ": ", status.error_message());
+  if (!status.ok())
+    return absl::StrCat("status ", status.error_code(), ": ", status.error_message());
   std::vector<grpc::Slice> slices;
   if (!response.Dump(&slices).ok()) return "an unreadable response";
   std::string bytes;
@@ -243,21 +255,28 @@ TEST(Access, ATokenIsRequiredOfEveryCallOnLoopback) {
   // Every RPC of the client library is refused without the token, with its code.
   absl::StatusOr<client::Client> anonymous = ConnectWith(daemon, {});
   ASSERT_THAT(anonymous.status(), IsOk());
-  EXPECT_THAT(anonymous->GetInfo().status(), StatusIs(absl::StatusCode::kUnauthenticated,
-                                                       HasSubstr("requires a bearer token")));
-  EXPECT_THAT(anonymous->GetStats().status(), StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
-  EXPECT_THAT(anonymous->GetConfig().status(), StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
-  EXPECT_THAT(anonymous->SetConfig({}).status(), StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
-  EXPECT_THAT(anonymous->GetPixel({}).status(), StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
+  EXPECT_THAT(anonymous->GetInfo().status(),
+              StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("requires a bearer token")));
+  EXPECT_THAT(anonymous->GetStats().status(),
+              StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
+  EXPECT_THAT(anonymous->GetConfig().status(),
+              StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
+  EXPECT_THAT(anonymous->SetConfig({}).status(),
+              StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
+  EXPECT_THAT(anonymous->GetPixel({}).status(),
+              StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
   EXPECT_THAT(anonymous->StartRecording({}).status(),
               StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
-  EXPECT_THAT(anonymous->StopRecording().status(), StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
-  EXPECT_THAT(anonymous->Calibrate({}).status(), StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
-  EXPECT_THAT(StreamOneFrame(*anonymous), StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
+  EXPECT_THAT(anonymous->StopRecording().status(),
+              StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
+  EXPECT_THAT(anonymous->Calibrate({}).status(),
+              StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
+  EXPECT_THAT(StreamOneFrame(*anonymous),
+              StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
   absl::StatusOr<client::Client> wrong = ConnectWith(daemon, {.token_file = dir.File("wrong")});
   ASSERT_THAT(wrong.status(), IsOk());
-  EXPECT_THAT(wrong->GetInfo().status(), StatusIs(absl::StatusCode::kUnauthenticated,
-                                                  HasSubstr("refuses the bearer token")));
+  EXPECT_THAT(wrong->GetInfo().status(),
+              StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("refuses the bearer token")));
 
   // The health service answers probes without a token, and says only SERVING.
   EXPECT_EQ(HealthCheck(daemon), "\x08\x01");  // HealthCheckResponse{status: SERVING}
@@ -310,7 +329,8 @@ TEST(Access, TlsWithClientCertificatesAndATokenAdmitsOnlyTheRightClient) {
   no_token.token_file.clear();
   absl::StatusOr<client::Client> tokenless = ConnectWith(daemon, no_token);
   ASSERT_THAT(tokenless.status(), IsOk());
-  EXPECT_THAT(tokenless->GetInfo().status(), StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
+  EXPECT_THAT(tokenless->GetInfo().status(),
+              StatusIs(absl::StatusCode::kUnauthenticated, HasSubstr("transientd requires")));
 
   // A client certificate from another CA fails the handshake: no connection at all.
   client::ChannelSecurity stranger = good;
@@ -334,7 +354,7 @@ TEST(Access, TlsWithClientCertificatesAndATokenAdmitsOnlyTheRightClient) {
 // with --insecure it serves and says so; with TLS and a token it serves authenticated clients.
 TEST(AccessBinary, ANonLoopbackAddressNeedsCredentialsOrInsecure) {
   const std::vector<std::string> base = {TRANSIENTD_BINARY, "--source", kSmallSim,
-                                         "--uncalibrated", "--listen", "0.0.0.0:0"};
+                                         "--uncalibrated",  "--listen", "0.0.0.0:0"};
   const transient::testing::ProcessResult refused = RunProcess(base);
   EXPECT_EQ(refused.exit_code, 2) << refused.err;
   EXPECT_THAT(refused.err, HasSubstr("--listen 0.0.0.0:0 serves other machines, without TLS"));

@@ -15,6 +15,8 @@
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
+#include "transient/drivers/capture_source.h"
+#include "transient/drivers/source_registry.h"
 #include "transient/formats/capture_file.h"
 #include "transient/v1/transient.grpc.pb.h"
 
@@ -22,8 +24,8 @@ namespace transient::service {
 namespace {
 
 using ::testing::HasSubstr;
-using ::transient::service::testing::DataDirAt;
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::DataDirAt;
 using ::transient::service::testing::FirstFrame;
 using ::transient::service::testing::Request;
 using ::transient::testing::IsOk;
@@ -106,6 +108,61 @@ TEST(ConfinedWrites, NoRequestCreatesAFileOutsideTheDataDirectory) {
   EXPECT_TRUE(std::filesystem::is_regular_file(data.File("day1/capture.h5")));
 }
 
+grpc::Status CalibrateFrom(Daemon& daemon, const std::string& source_uri) {
+  grpc::ClientContext context;
+  v1::CalibrateRequest request;
+  request.set_takes(1);
+  request.set_keep_current(true);
+  request.set_source_uri(source_uri);
+  auto reader = daemon.Stub()->Calibrate(&context, request);
+  v1::CalibrateProgress progress;
+  while (reader->Read(&progress)) {
+  }
+  return reader->Finish();
+}
+
+// Calibrate reads what a client names: only the stream's source, a simulator or a recording of
+// the data directory; never a file elsewhere (a crafted HDF5 file can hang the library) or
+// another device.
+TEST(ConfinedWrites, CalibrateReadsOnlyRecordingsOfTheDataDirectory) {
+  ScratchDirectory outside;
+  ScratchDirectory data;
+  // A recording of the calibration scene, inside and outside.
+  for (const std::string& path : {data.File("dirac.h5"), outside.File("dirac.h5")}) {
+    absl::StatusOr<std::unique_ptr<CaptureSource>> sim =
+        OpenSource("sim:calibration?width=32&height=24&pace=fast&frames=2");
+    ASSERT_THAT(sim.status(), IsOk());
+    ASSERT_THAT((*sim)->Start(), IsOk());
+    RawFrame frame;
+    ASSERT_THAT((*sim)->Next(absl::Seconds(5), &frame), IsOk());
+    absl::StatusOr<CaptureWriter> writer = CaptureWriter::Create(
+        path, (*sim)->camera(), (*sim)->schedule(), {.saturation_level = frame.saturation_level});
+    ASSERT_THAT(writer.status(), IsOk());
+    do {
+      ASSERT_THAT(writer->Append(frame), IsOk());
+    } while ((*sim)->Next(absl::Seconds(5), &frame).ok());
+    ASSERT_THAT(writer->Close(), IsOk());
+  }
+  std::filesystem::create_symlink(outside.File("dirac.h5"), data.File("link.h5"));
+  PipelineOptions options{.source_uri = kSmallSim};
+  options.data_dir = DataDirAt(data);
+  Daemon daemon(options);
+
+  for (const std::string& refused :
+       {absl::StrCat("replay:", outside.File("dirac.h5")), std::string("replay:../dirac.h5"),
+        std::string("replay:link.h5"), std::string("v4l2:/dev/video0"), std::string("usb:kinect2"),
+        std::string("openni2:")}) {
+    const grpc::Status status = CalibrateFrom(daemon, refused);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << refused;
+    EXPECT_THAT(status.error_message(), HasSubstr("source_uri")) << refused;
+  }
+  EXPECT_EQ(CalibrateFrom(daemon, "replay:missing.h5").error_code(), grpc::StatusCode::NOT_FOUND);
+  const grpc::Status inside = CalibrateFrom(daemon, "replay:dirac.h5?pace=fast");
+  EXPECT_TRUE(inside.ok()) << inside.error_message();
+  const grpc::Status simulator = CalibrateFrom(daemon, "sim:calibration?width=32&height=24");
+  EXPECT_TRUE(simulator.ok()) << simulator.error_message();
+}
+
 TEST(ConfinedWrites, TheFileQuotaRefusesNewFiles) {
   ScratchDirectory data;
   std::ofstream(data.File("old.h5")) << "x";
@@ -169,8 +226,7 @@ TEST(ConfinedWrites, AFileSizeLimitEndsTheRecordingWithEveryFrameWhole) {
   ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &limited), 0);
   v1::Recording out;
   const grpc::Status started = StartRecording(daemon, "capture.h5", &out);
-  const v1::Recording ended =
-      started.ok() ? WaitForTheRecordingToEnd(daemon) : v1::Recording();
+  const v1::Recording ended = started.ok() ? WaitForTheRecordingToEnd(daemon) : v1::Recording();
   ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &before), 0);
   ::signal(SIGXFSZ, disposition);
   ASSERT_TRUE(started.ok()) << started.error_message();

@@ -118,9 +118,9 @@ class Daemon {
 };
 
 // Streams MOMENT_STATE from `daemon`, starts a recording of `max_frames` transient frames into
-// `name` (of its data directory) once the first frame has come, and keeps the live frames with images by capture time
-// until the recording has ended by itself (and a few frames more, so that every recorded cycle
-// has been published). The raw frames recorded; 0, with a test failure, when it went wrong.
+// `name` (of its data directory) once the first frame has come, and keeps the live frames with
+// images by capture time until the recording has ended by itself (and a few frames more, so
+// that every recorded cycle has been published). The raw frames recorded; 0, with a test failure, when it went wrong.
 inline uint64_t RecordWhileStreaming(Daemon& daemon, const std::string& name, int max_frames,
                                      std::map<double, v1::Frame>* live) {
   grpc::ClientContext context;

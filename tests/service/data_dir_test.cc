@@ -33,7 +33,13 @@ TEST(DataDir, OpenCreatesTheDirectoryAndRefusesAFile) {
   std::ofstream(scratch.File("file")) << "x";
   EXPECT_THAT(DataDir::Open(scratch.File("file"), {}).status(),
               StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("not a directory")));
-  EXPECT_THAT(DataDir::Open("", {}).status(), StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("expected a path")));
+  std::filesystem::create_directory(scratch.File("shared"));
+  std::filesystem::permissions(scratch.File("shared"), std::filesystem::perms::others_write,
+                               std::filesystem::perm_options::add);
+  EXPECT_THAT(DataDir::Open(scratch.File("shared"), {}).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("writable by every user")));
+  EXPECT_THAT(DataDir::Open("", {}).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("expected a path")));
 }
 
 TEST(DataDir, NewNamesResolveInsideTheDirectory) {
@@ -108,6 +114,27 @@ TEST(DataDir, EveryKindOfNameOutsideOrInTheWayIsRefused) {
   ::close(sock);
   // Nothing was created outside, and the link's target still does not exist.
   EXPECT_TRUE(outside.Entries().empty());
+}
+
+TEST(DataDir, ExistingNamesMustBeRegularFilesInside) {
+  ScratchDirectory outside;
+  ScratchDirectory scratch;
+  absl::StatusOr<DataDir> data = DataDir::Open(scratch.path().string(), {});
+  ASSERT_THAT(data.status(), IsOk());
+  std::filesystem::create_directory(scratch.File("day1"));
+  std::ofstream(scratch.File("day1/capture.h5")) << "x";
+  std::ofstream(outside.File("capture.h5")) << "x";
+  std::filesystem::create_symlink(outside.File("capture.h5"), scratch.File("link.h5"));
+  EXPECT_THAT(data->ExistingFilePath("source_uri", "day1/capture.h5"),
+              IsOkAndHolds(data->root() + "/day1/capture.h5"));
+  EXPECT_THAT(data->ExistingFilePath("source_uri", "missing.h5").status(),
+              StatusIs(absl::StatusCode::kNotFound, HasSubstr("no file \"missing.h5\"")));
+  EXPECT_THAT(data->ExistingFilePath("source_uri", "link.h5").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("a symbolic link")));
+  EXPECT_THAT(data->ExistingFilePath("source_uri", outside.File("capture.h5")).status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("an absolute path")));
+  EXPECT_THAT(data->ExistingFilePath("source_uri", "day1").status(),
+              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("a directory")));
 }
 
 TEST(DataDir, UsageCountsRegularFilesWithoutFollowingLinks) {

@@ -19,7 +19,7 @@ struct AccessOptions {
   std::string tls_key_file = {};    // PEM private key (not readable by others)
   std::string client_ca_file = {};  // PEM CA: every call needs a client certificate it signed
   std::string token_file = {};      // every call needs `authorization: Bearer <the file's token>`
-  bool insecure = false;       // serve a non-loopback address without TLS and authentication
+  bool insecure = false;            // serve a non-loopback address without TLS and authentication
 };
 
 // Whether the host of `listen` (host:port, [v6]:port or unix:PATH) is this machine only:
@@ -57,7 +57,7 @@ class Access {
   Access() = default;
 
   std::string cert_pem_, key_pem_, client_ca_pem_, token_;
-  bool insecure_ = false;   // --insecure was given
+  bool insecure_ = false;  // --insecure was given
   bool loopback_ = true;
 };
 

@@ -28,7 +28,8 @@ struct DataUsage {
 class DataDir {
  public:
   // The directory `root`, created (with its parents, under the umask) when missing. InvalidArgument
-  // when `root` is empty or names something that is not a directory; the file system's error
+  // when `root` is empty, names something that is not a directory, or is writable by every
+  // user (another could place links or crafted files there); the file system's error
   // (PermissionDenied, ...) naming the path when it cannot be created or read.
   [[nodiscard]] static absl::StatusOr<DataDir> Open(const std::string& root, DataQuota quota);
 
@@ -51,6 +52,13 @@ class DataDir {
   [[nodiscard]] absl::StatusOr<std::string> NewFilePath(absl::string_view field,
                                                         absl::string_view name) const;
 
+  // The absolute path of the existing regular file `name` of the directory, checked as
+  // NewFilePath checks names, except that the last component must be a regular file (NotFound
+  // when it does not exist). For what a client asks the daemon to read (Calibrate from a
+  // `replay:` recording).
+  [[nodiscard]] absl::StatusOr<std::string> ExistingFilePath(absl::string_view field,
+                                                             absl::string_view name) const;
+
   // What the directory holds now (a walk of the tree: call it per request, not per frame).
   DataUsage Usage() const;
 
@@ -63,6 +71,9 @@ class DataDir {
   uint64_t BytesLeft() const;
 
  private:
+  absl::StatusOr<std::string> Resolve(absl::string_view field, absl::string_view name,
+                                      bool existing) const;
+
   DataDir(std::string root, DataQuota quota) : root_(std::move(root)), quota_(quota) {}
 
   std::string root_;

@@ -106,7 +106,9 @@ class Pipeline {
   // Cancelled once `cancelled` returns true or the pipeline stops. FailedPrecondition for a
   // depth camera (SamplingScheme::kDepth), which has no moments to calibrate.
   // `output_name`: also write a calibration file of that name in the data directory ("" =
-  // none); refused as DataDir::NewFilePath and DataDir::CheckRoom say.
+  // none); refused as DataDir::NewFilePath and DataDir::CheckRoom say. `source_uri` may name
+  // the stream's source, a simulator, or `replay:NAME` of a recording in the data directory;
+  // anything else is InvalidArgument (a client must not make the daemon read other files).
   absl::StatusOr<CalibrationOutcome> Calibrate(const std::string& source_uri, int takes,
                                                const std::string& output_name, bool keep_current,
                                                const std::function<void(int, int)>& on_take,

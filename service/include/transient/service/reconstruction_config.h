@@ -5,6 +5,7 @@
 #include <string>
 
 #include "absl/status/status.h"
+#include "absl/strings/string_view.h"
 #include "transient/service/products.h"
 
 namespace transient::service {
@@ -32,5 +33,8 @@ std::string DescribeConfig(const ReconstructionConfig& config);
 // "<path>:<line>: ..." naming the key, the value and the rule, or "<path>: ..." when the
 // result fails Validate().
 absl::Status ReadConfigFile(const std::string& path, ReconstructionConfig* config);
+// The same from the file's `content`, named `path` in messages.
+absl::Status ParseConfig(absl::string_view content, absl::string_view path,
+                         ReconstructionConfig* config);
 
 }  // namespace transient::service
