@@ -15,8 +15,6 @@
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
-#include "transient/drivers/capture_source.h"
-#include "transient/drivers/source_registry.h"
 #include "transient/formats/capture_file.h"
 #include "transient/v1/transient.grpc.pb.h"
 
@@ -28,6 +26,7 @@ using ::transient::service::testing::Daemon;
 using ::transient::service::testing::DataDirAt;
 using ::transient::service::testing::FirstFrame;
 using ::transient::service::testing::Request;
+using ::transient::service::testing::WriteCapture;
 using ::transient::testing::IsOk;
 using ::transient::testing::ScratchDirectory;
 
@@ -129,19 +128,8 @@ TEST(ConfinedWrites, CalibrateReadsOnlyRecordingsOfTheDataDirectory) {
   ScratchDirectory data;
   // A recording of the calibration scene, inside and outside.
   for (const std::string& path : {data.File("dirac.h5"), outside.File("dirac.h5")}) {
-    absl::StatusOr<std::unique_ptr<CaptureSource>> sim =
-        OpenSource("sim:calibration?width=32&height=24&pace=fast&frames=2");
-    ASSERT_THAT(sim.status(), IsOk());
-    ASSERT_THAT((*sim)->Start(), IsOk());
-    RawFrame frame;
-    ASSERT_THAT((*sim)->Next(absl::Seconds(5), &frame), IsOk());
-    absl::StatusOr<CaptureWriter> writer = CaptureWriter::Create(
-        path, (*sim)->camera(), (*sim)->schedule(), {.saturation_level = frame.saturation_level});
-    ASSERT_THAT(writer.status(), IsOk());
-    do {
-      ASSERT_THAT(writer->Append(frame), IsOk());
-    } while ((*sim)->Next(absl::Seconds(5), &frame).ok());
-    ASSERT_THAT(writer->Close(), IsOk());
+    ASSERT_NO_FATAL_FAILURE(
+        WriteCapture("sim:calibration?width=32&height=24&pace=fast&frames=2", path));
   }
   std::filesystem::create_symlink(outside.File("dirac.h5"), data.File("link.h5"));
   PipelineOptions options{.source_uri = kSmallSim};

@@ -15,8 +15,12 @@
 #include "absl/time/clock.h"
 #include "gtest/gtest.h"
 #include "tests/support/scratch_directory.h"
+#include "tests/support/status_matchers.h"
 #include "tests/support/wait.h"
 #include "transient/client/decoded_image.h"
+#include "transient/drivers/capture_source.h"
+#include "transient/drivers/source_registry.h"
+#include "transient/formats/capture_file.h"
 #include "transient/service/data_dir.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
@@ -45,6 +49,25 @@ inline std::shared_ptr<const DataDir> DataDirAt(const ::transient::testing::Scra
   absl::StatusOr<DataDir> data_dir = DataDir::Open(dir.path().string(), quota);
   EXPECT_TRUE(data_dir.ok()) << data_dir.status();
   return data_dir.ok() ? std::make_shared<const DataDir>(*std::move(data_dir)) : nullptr;
+}
+
+// A capture file at `path` of every raw frame of `uri` (a simulator with frames=N), for a replay
+// or a Calibrate from one. Fails the test (ASSERT) when the source or the file fails.
+inline void WriteCapture(const std::string& uri, const std::string& path) {
+  using ::transient::testing::IsOk;
+  absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSource(uri);
+  ASSERT_THAT(source.status(), IsOk());
+  ASSERT_THAT((*source)->Start(), IsOk());
+  RawFrame frame;
+  ASSERT_THAT((*source)->Next(absl::Seconds(5), &frame), IsOk());
+  absl::StatusOr<CaptureWriter> writer =
+      CaptureWriter::Create(path, (*source)->camera(), (*source)->schedule(),
+                            {.saturation_level = frame.saturation_level});
+  ASSERT_THAT(writer.status(), IsOk());
+  do {
+    ASSERT_THAT(writer->Append(frame), IsOk());
+  } while ((*source)->Next(absl::Seconds(5), &frame).ok());
+  ASSERT_THAT(writer->Close(), IsOk());
 }
 
 class Daemon {

@@ -52,6 +52,7 @@ using ::transient::service::testing::Daemon;
 using ::transient::service::testing::ExpectSameAsLive;
 using ::transient::service::testing::RecordWhileStreaming;
 using ::transient::service::testing::Request;
+using ::transient::service::testing::WriteCapture;
 
 // Reads up to `frames` frames with images; returns the status the stream ended with (OK when
 // it was cut after `frames`).
@@ -450,22 +451,8 @@ TEST(Server, RecordingThroughTheRpcReplaysToTheSameMomentsBitForBit) {
 TEST(Server, EndOfAReplayEndsNewStreamsWithOutOfRange) {
   ScratchDirectory dir;
   const std::string path = dir.File("short.h5");
-  {
-    absl::StatusOr<std::unique_ptr<CaptureSource>> sim =
-        OpenSource("sim:mirrors?width=16&height=12&pace=fast&frames=2");
-    ASSERT_THAT(sim.status(), IsOk());
-    ASSERT_THAT((*sim)->Start(), IsOk());
-    RawFrame frame;
-    ASSERT_THAT((*sim)->Next(absl::Seconds(5), &frame), IsOk());
-    absl::StatusOr<CaptureWriter> writer = CaptureWriter::Create(
-        path, (*sim)->camera(), (*sim)->schedule(),
-        {.saturation_level = frame.saturation_level});
-    ASSERT_THAT(writer.status(), IsOk());
-    do {
-      ASSERT_THAT(writer->Append(frame), IsOk());
-    } while ((*sim)->Next(absl::Seconds(5), &frame).ok());
-    ASSERT_THAT(writer->Close(), IsOk());
-  }
+  ASSERT_NO_FATAL_FAILURE(
+      WriteCapture("sim:mirrors?width=16&height=12&pace=fast&frames=2", path));
   Daemon daemon(absl::StrCat("replay:", path, "?pace=fast"));
   // The end is announced once both recorded frames have been reconstructed.
   EXPECT_TRUE(daemon.WaitFor([&] {

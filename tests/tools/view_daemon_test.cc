@@ -205,19 +205,8 @@ TEST(ViewDaemon, DaemonOptionsAreCheckedBeforeConnecting) {
 
 // A capture file of `cycles` transient frames of the small simulated camera, for replay.
 void WriteCapture(const std::string& path, int cycles) {
-  absl::StatusOr<std::unique_ptr<CaptureSource>> sim =
-      OpenSource(absl::StrCat("sim:mirrors?width=32&height=24&pace=fast&frames=", cycles));
-  ASSERT_THAT(sim.status(), IsOk());
-  ASSERT_THAT((*sim)->Start(), IsOk());
-  RawFrame frame;
-  ASSERT_THAT((*sim)->Next(absl::Seconds(5), &frame), IsOk());
-  absl::StatusOr<CaptureWriter> writer = CaptureWriter::Create(
-      path, (*sim)->camera(), (*sim)->schedule(), {.saturation_level = frame.saturation_level});
-  ASSERT_THAT(writer.status(), IsOk());
-  do {
-    ASSERT_THAT(writer->Append(frame), IsOk());
-  } while ((*sim)->Next(absl::Seconds(5), &frame).ok());
-  ASSERT_THAT(writer->Close(), IsOk());
+  service::testing::WriteCapture(
+      absl::StrCat("sim:mirrors?width=32&height=24&pace=fast&frames=", cycles), path);
 }
 
 TEST(ViewDaemon, AReplayThatEndsEarlyDrawsTheFramesItSent) {
