@@ -52,6 +52,13 @@ Daemon& TheDaemon() {
     if (!server.ok()) std::abort();
     made->server = *std::move(server);
     made->pipeline->Start();
+    // Stopped before the process ends: the pipeline's threads must not run while the OpenMP
+    // runtime shuts down (libomp asserted in __kmp_init_serial at a replay's exit).
+    std::atexit([] {
+      Daemon& running = TheDaemon();
+      running.pipeline->Stop();
+      running.server->Shutdown(absl::Seconds(1));
+    });
     grpc::ChannelArguments arguments;
     arguments.SetMaxReceiveMessageSize(-1);
     made->stub = Transient::NewStub(
