@@ -74,6 +74,10 @@ constexpr SourceKey kKeys[] = {
     {"pace", "realtime", "", "realtime (sleep until each frame is due) or fast"},
     {"frames", "0", "", "transient frames (cycles) before the end; 0 = endless"},
     {"k", "3", "", "returns per pixel of the sparse scene, 1..8"},
+    {"unplug_every", "0", "s",
+     "fault injection: the camera is unplugged for the last unplug_for s of every unplug_every "
+     "s since the process first opened a simulator; 0 = never"},
+    {"unplug_for", "0", "s", "how long each unplugging lasts, 0 < unplug_for < unplug_every"},
 };
 
 absl::Status Violated(absl::string_view key, double value, absl::string_view rule) {
@@ -237,6 +241,8 @@ const std::map<absl::string_view, Setter>& Setters() {
        }},
       {"frames", Integer(&SimulatorOptions::frames)},
       {"k", Integer(&SimulatorOptions::sparse_k)},
+      {"unplug_every", Double(&SimulatorOptions::unplug_every_s)},
+      {"unplug_for", Double(&SimulatorOptions::unplug_for_s)},
   };
   return *setters;
 }
@@ -375,6 +381,15 @@ absl::Status SimulatorOptions::Validate() const {
   if (!InRange(readout_s, 0.0, 10.0)) return Violated("readout", readout_s, "0 <= readout <= 10");
   if (frames < 0) return Violated("frames", static_cast<double>(frames), "frames >= 0");
   if (sparse_k < 1 || sparse_k > 8) return Violated("k", sparse_k, "1 <= k <= 8");
+  if (!InRange(unplug_every_s, 0.0, 1e9)) {
+    return Violated("unplug_every", unplug_every_s, "0 <= unplug_every <= 1e9");
+  }
+  if (unplug_every_s > 0.0 && !(unplug_for_s > 0.0 && unplug_for_s < unplug_every_s)) {
+    return Violated("unplug_for", unplug_for_s, "0 < unplug_for < unplug_every");
+  }
+  if (unplug_every_s == 0.0 && unplug_for_s != 0.0) {
+    return Violated("unplug_for", unplug_for_s, "unplug_for = 0 unless unplug_every > 0");
+  }
   return absl::OkStatus();
 }
 
@@ -463,6 +478,8 @@ std::string FormatSimulatorUri(const SimulatorOptions& o) {
   name("pace", PaceName(o.pace), PaceName(d.pace));
   integer("frames", o.frames, d.frames);
   integer("k", o.sparse_k, d.sparse_k);
+  number("unplug_every", o.unplug_every_s, d.unplug_every_s);
+  number("unplug_for", o.unplug_for_s, d.unplug_for_s);
   std::string uri = absl::StrCat("sim:", o.scene);
   if (!parts.empty()) absl::StrAppend(&uri, "?", absl::StrJoin(parts, "&"));
   return uri;

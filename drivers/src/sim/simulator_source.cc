@@ -36,6 +36,25 @@ CameraInfo MakeCamera(const SimulatorOptions& options) {
   return camera;
 }
 
+// When the process first opened a simulator: the clock of the unplug_every/unplug_for outages,
+// shared by every source of the process so that a reopened one sees the same outages.
+absl::Time UnplugEpoch() {
+  static const absl::Time epoch = absl::Now();
+  return epoch;
+}
+
+// Unavailable while the fault injection of `options` has the camera unplugged.
+absl::Status UnpluggedStatus(const std::string& uri, const SimulatorOptions& options) {
+  if (options.unplug_every_s <= 0.0) return absl::OkStatus();
+  const double since = absl::ToDoubleSeconds(absl::Now() - UnplugEpoch());
+  if (std::fmod(since, options.unplug_every_s) < options.unplug_every_s - options.unplug_for_s) {
+    return absl::OkStatus();
+  }
+  return absl::UnavailableError(absl::StrCat(uri, ": the simulated camera is unplugged (",
+                                             options.unplug_for_s, " s of every ",
+                                             options.unplug_every_s, " s)"));
+}
+
 class SimulatorSource : public CaptureSource {
  public:
   SimulatorSource(std::string uri, const SimulatorOptions& options, AcquisitionSchedule schedule,
@@ -97,6 +116,9 @@ class SimulatorSource : public CaptureSource {
             absl::StrCat(uri_, ": no frame within ", absl::FormatDuration(timeout)));
       }
       if (wait > absl::ZeroDuration()) absl::SleepFor(wait);
+    }
+    if (absl::Status unplugged = UnpluggedStatus(uri_, options_); !unplugged.ok()) {
+      return unplugged;
     }
     if (scene_->dynamic() && cycle != prepared_cycle_) Prepare(cycle);
 
@@ -233,6 +255,8 @@ absl::StatusOr<std::unique_ptr<CaptureSource>> Open(std::string uri,
   CameraInfo camera = MakeCamera(options);
   absl::StatusOr<std::unique_ptr<sim::Scene>> scene = sim::MakeScene(options, camera);
   if (!scene.ok()) return scene.status();
+  UnplugEpoch();  // the first simulator of the process starts the outages' clock
+  if (absl::Status unplugged = UnpluggedStatus(uri, options); !unplugged.ok()) return unplugged;
   return std::make_unique<SimulatorSource>(std::move(uri), options, *std::move(schedule),
                                            std::move(camera), *std::move(scene));
 }

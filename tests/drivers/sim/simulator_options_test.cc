@@ -56,7 +56,7 @@ TEST(SimulatorUri, EveryKeyIsParsed) {
       "exposure=1e-3&takes=2&width=64&height=48&camera_seed=7&waveform=triangle&duty=0.3&"
       "gain_error=0.1&delay_ns=-2&delay_error_ns=0.5&ambient=2e5&brightness=1e7&full_well=9000&"
       "read_noise=5&adc_bits=14&noise=gaussian&snr=30&outliers=0.07&seed=9&readout=2e-3&"
-      "pace=fast&frames=5&k=4");
+      "pace=fast&frames=5&k=4&unplug_every=30&unplug_for=2.5");
   ASSERT_THAT(o.status(), IsOk());
   EXPECT_EQ(o->scene, "sparse");
   EXPECT_EQ(o->schedule.base_frequency_hz, 20e6);
@@ -88,6 +88,8 @@ TEST(SimulatorUri, EveryKeyIsParsed) {
   EXPECT_EQ(o->pace, Pace::kFast);
   EXPECT_EQ(o->frames, 5);
   EXPECT_EQ(o->sparse_k, 4);
+  EXPECT_EQ(o->unplug_every_s, 30.0);
+  EXPECT_EQ(o->unplug_for_s, 2.5);
   // And back: the formatted URI parses to the same options.
   const absl::StatusOr<SimulatorOptions> again = ParseSimulatorUri(FormatSimulatorUri(*o));
   ASSERT_THAT(again.status(), IsOk());
@@ -219,6 +221,15 @@ TEST(SimulatorUri, OutOfRangeValuesNameTheViolatedConstraint) {
               StatusIs(kInvalidArgument, HasSubstr("frames = -1")));
   EXPECT_THAT(ParseSimulatorUri("sim:sparse?k=9").status(),
               StatusIs(kInvalidArgument, HasSubstr("1 <= k <= 8")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?unplug_every=-1").status(),
+              StatusIs(kInvalidArgument, HasSubstr("0 <= unplug_every")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?unplug_every=5").status(),
+              StatusIs(kInvalidArgument, HasSubstr("unplug_for = 0. Violated constraint: 0 < "
+                                                   "unplug_for < unplug_every")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?unplug_every=5&unplug_for=5").status(),
+              StatusIs(kInvalidArgument, HasSubstr("0 < unplug_for < unplug_every")));
+  EXPECT_THAT(ParseSimulatorUri("sim:mirrors?unplug_for=1").status(),
+              StatusIs(kInvalidArgument, HasSubstr("unplug_for = 0 unless unplug_every > 0")));
 }
 
 TEST(SimulatorUri, ImpossibleSchedulesAreRefusedWithTheirKey) {

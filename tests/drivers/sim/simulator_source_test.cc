@@ -86,6 +86,57 @@ TEST(SimulatorSource, StopAndStartContinueTheSequence) {
   EXPECT_EQ(frame.config.sequence, 1u);
 }
 
+// The fault injection: the camera is gone for the last unplug_for seconds of every
+// unplug_every seconds, counted from the process's first simulator; Next and opening are then
+// Unavailable, and once it is back a new source delivers again.
+TEST(SimulatorSource, UnpluggedCameraIsUnavailableAndComesBack) {
+  const std::string uri = absl::StrCat("sim:mirrors?", kSmall, "&unplug_every=0.6&unplug_for=0.3");
+  // Wait for the plugged-in part of a period: opening works, then frames come until the
+  // camera is gone.
+  std::unique_ptr<CaptureSource> source;
+  const absl::Time deadline = absl::Now() + absl::Seconds(30);
+  absl::Status opened = absl::UnknownError("not tried");
+  while (!opened.ok() && absl::Now() < deadline) {
+    absl::StatusOr<std::unique_ptr<CaptureSource>> s = OpenSource(uri);
+    opened = s.status();
+    if (s.ok()) source = *std::move(s);
+    if (!opened.ok()) {
+      EXPECT_THAT(opened, StatusIs(absl::StatusCode::kUnavailable, HasSubstr("unplugged")));
+      absl::SleepFor(absl::Milliseconds(20));
+    }
+  }
+  ASSERT_THAT(opened, IsOk());
+  ASSERT_THAT(source->Start(), IsOk());
+  RawFrame frame;
+  absl::Status next;
+  int delivered = 0;
+  while ((next = source->Next(absl::Seconds(1), &frame)).ok() && absl::Now() < deadline) {
+    ++delivered;
+  }
+  EXPECT_GT(delivered, 0);
+  EXPECT_THAT(next,
+              StatusIs(absl::StatusCode::kUnavailable,
+                       HasSubstr("the simulated camera is unplugged (0.3 s of every 0.6 s)")));
+  // While it is gone, opening fails the same way; within a period it is back.
+  bool refused = false, back = false;
+  while (!back && absl::Now() < deadline) {
+    absl::StatusOr<std::unique_ptr<CaptureSource>> again = OpenSource(uri);
+    if (!again.ok()) {
+      EXPECT_THAT(again.status(), StatusIs(absl::StatusCode::kUnavailable, HasSubstr("unplugged")));
+      refused = true;
+      absl::SleepFor(absl::Milliseconds(20));
+    } else {
+      back = refused;  // an open before the first refusal may precede the outage's end
+      if (back) {
+        ASSERT_THAT((*again)->Start(), IsOk());
+        EXPECT_THAT((*again)->Next(absl::Seconds(1), &frame), IsOk());
+      }
+    }
+  }
+  EXPECT_TRUE(refused);
+  EXPECT_TRUE(back);
+}
+
 TEST(SimulatorSource, RealtimePaceDeliversFramesAtTheFramePeriod) {
   // 10 ms frame period: frame 5 is due 50 ms after Start. Only a lower bound, measured from
   // before Start: a loaded machine may be slower, never faster.

@@ -107,6 +107,12 @@ struct SimulatorOptions {
   double readout_s = 3.78e-3;   // [readout] s between two exposures (thesis fig. 8.11 timing)
   Pace pace = Pace::kRealtime;  // [pace]
   int64_t frames = 0;           // [frames] transient frames (cycles) until OutOfRange; 0 = endless
+  // Fault injection, for the daemon's soak run and tests of a camera that is unplugged and
+  // plugged in again (a real one cannot be in CI): the camera is gone for the last
+  // `unplug_for_s` seconds of every `unplug_every_s` seconds since this process first opened a
+  // simulator. Next and opening then fail with Unavailable, as a lost device does.
+  double unplug_every_s = 0.0;  // [unplug_every] s; 0 = never
+  double unplug_for_s = 0.0;    // [unplug_for] s, 0 < unplug_for < unplug_every
 
   // Scene parameters.
   int sparse_k = 3;  // [k] returns per pixel of the sparse scene, 1..8
