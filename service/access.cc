@@ -6,39 +6,16 @@
 #include <utility>
 
 #include "absl/strings/match.h"
-#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_split.h"
+#include "transient/wire/address.h"
 #include "transient/wire/credentials.h"
 
 namespace transient::service {
 
-bool IsLoopback(const std::string& listen) {
-  if (absl::StartsWith(listen, "unix:") || absl::StartsWith(listen, "unix-abstract:")) {
-    return true;
-  }
-  std::string host = listen;
-  if (const size_t colon = listen.rfind(':'); colon != std::string::npos) {
-    host = listen.substr(0, colon);
-  }
-  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') {
-    host = host.substr(1, host.size() - 2);
-  }
-  if (host == "localhost" || host == "::1") return true;
-  // 127.0.0.0/8, written as four decimal numbers.
-  const std::vector<std::string> parts = absl::StrSplit(host, '.');
-  if (parts.size() != 4 || parts[0] != "127") return false;
-  for (const std::string& part : parts) {
-    int value = 0;
-    if (part.empty() || !absl::SimpleAtoi(part, &value) || value < 0 || value > 255) return false;
-  }
-  return true;
-}
-
 absl::StatusOr<Access> Access::Load(const AccessOptions& options, const std::string& listen) {
   Access access;
   access.insecure_ = options.insecure;
-  access.loopback_ = IsLoopback(listen);
+  access.loopback_ = wire::IsLoopback(listen);
   if (options.tls_cert_file.empty() != options.tls_key_file.empty()) {
     return absl::InvalidArgumentError(
         "--tls-cert and --tls-key: expected both (the daemon's certificate and its key) or "

@@ -22,6 +22,7 @@
 #include "tests/support/status_matchers.h"
 #include "tests/support/subprocess.h"
 #include "transient/client/client.h"
+#include "transient/wire/address.h"
 #include "transient/wire/credentials.h"
 
 namespace transient::service {
@@ -47,11 +48,11 @@ void WriteFile(const std::string& path, const std::string& content, mode_t mode 
 TEST(Access, LoopbackIsThisMachineOnly) {
   for (const char* address : {"127.0.0.1:50051", "127.1.2.3:0", "localhost:1", "[::1]:5",
                               "unix:/tmp/transientd.sock", "unix-abstract:transientd"}) {
-    EXPECT_TRUE(IsLoopback(address)) << address;
+    EXPECT_TRUE(wire::IsLoopback(address)) << address;
   }
   for (const char* address : {"0.0.0.0:50051", "[::]:1", "192.168.1.2:1", "camera-pc:1",
                               "127.0.0.1.example.com:1", "128.0.0.1:1", "127.0.0.256:1"}) {
-    EXPECT_FALSE(IsLoopback(address)) << address;
+    EXPECT_FALSE(wire::IsLoopback(address)) << address;
   }
 }
 

@@ -22,11 +22,6 @@ struct AccessOptions {
   bool insecure = false;            // serve a non-loopback address without TLS and authentication
 };
 
-// Whether the host of `listen` (host:port, [v6]:port or unix:PATH) is this machine only:
-// 127.0.0.0/8, ::1, localhost, or a Unix socket. Anything else, 0.0.0.0 and [::] included, is
-// reachable from other machines.
-bool IsLoopback(const std::string& listen);
-
 class Access {
  public:
   // Reads the files (wire::ReadPemFile, wire::ReadTokenFile) and checks the rules for
