@@ -29,11 +29,12 @@ test: deps
 	JOBS=$(JOBS) CMAKE_FLAGS="$(CMAKE_FLAGS)" bash tools/scripts/test.sh $(ASAN_DIR) $(BUILD_DIR)
 
 TRANSIENT = $(BUILD_DIR)/tools/transient/transient
-# The product's main job: transientd on the simulated mirrors scene (thesis fig. 8.7) and
-# `transient client` for a few seconds; out/ gets depth, range, slices, the light sweep as MP4
-# and the client's summary.
+# The product's main job: transientd on the simulated mirrors scene (thesis fig. 8.7), its live
+# viewer in a browser (the URL is printed) and `transient client` for DEMO_SECONDS; out/ gets
+# depth, range, slices, the light sweep as MP4 and the client's summary.
+DEMO_SECONDS ?= 10
 demo: build
-	bash tools/scripts/demo.sh $(BUILD_DIR) 5
+	bash tools/scripts/demo.sh $(BUILD_DIR) $(DEMO_SECONDS)
 
 # The file-based measurement sequence of the README (sim -> calibrate -> moments ->
 # reconstruct), compared with the scene's truth, into out/files/.

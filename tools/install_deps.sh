@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package that building, testing and the demo need (openssl makes the
-# security tests' certificates; util-linux's unshare gives the full-disk test its own tmpfs).
+# security tests' certificates; util-linux's unshare gives the full-disk test its own tmpfs;
+# Boost.Beast serves the web viewer, and Chromium with Node.js runs its browser tests), then the
+# browser tests' npm packages from tests/web/package-lock.json (npm ci: playwright-core, which
+# drives Debian's Chromium and downloads no browser).
 # Idempotent: apt-get skips what is already there. Uses sudo when not root.
 set -euo pipefail
 
@@ -18,7 +21,12 @@ packages=(
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   python3 python3-numpy python3-h5py python3-grpcio python3-protobuf python3-zstandard
   openssl util-linux libfuzzer-15-dev
+  libboost-dev chromium
 )
+# Node.js and npm: Debian's, unless the machine has its own (NodeSource's nodejs carries npm and
+# conflicts with Debian's npm package).
+command -v node > /dev/null || packages+=(nodejs)
+command -v npm > /dev/null || packages+=(npm)
 
 sudo_cmd=()
 if [[ $(id -u) -ne 0 ]]; then
@@ -34,9 +42,17 @@ done
 
 if [[ ${#missing[@]} -eq 0 ]]; then
   echo "deps: all ${#packages[@]} packages already installed"
-  exit 0
+else
+  echo "deps: installing ${missing[*]}"
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
-echo "deps: installing ${missing[*]}"
-"${sudo_cmd[@]}" apt-get update -qq
-DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+# The browser tests' packages, pinned by the lock file; again only when it changed.
+web=$(cd "$(dirname "$0")/../tests/web" && pwd)
+if [[ ! -f $web/node_modules/.package-lock.json || $web/package-lock.json -nt $web/node_modules/.package-lock.json ]]; then
+  echo "deps: npm ci in tests/web (playwright-core)"
+  npm ci --prefix "$web" --no-audit --no-fund --ignore-scripts --loglevel=error
+else
+  echo "deps: tests/web/node_modules is up to date"
+fi

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The one-command demo (make demo): transientd on the simulated mirrors scene (thesis fig. 8.7),
-# `transient client` receiving depth, range, 64 transient slices and the moment depth map for a
-# few seconds, and the light sweep over the wall as an MP4. Everything lands in out/.
+# the live viewer in a browser (`transient web`, its URL printed) while `transient client`
+# receives depth, range, 64 transient slices and the moment depth map for SECONDS, and the
+# light sweep over the wall as an MP4. Everything lands in out/.
 #   usage: tools/scripts/demo.sh BUILD_DIR [SECONDS]
 set -euo pipefail
 build=${1:?usage: demo.sh BUILD_DIR [SECONDS]}
@@ -15,7 +16,12 @@ port_file="$out/transientd.port"
 "$transientd" --source sim:mirrors --listen 127.0.0.1:0 --port-file "$port_file" \
   --data-dir "$out/data" --stats-interval 2 2> "$out/transientd.log" &
 daemon=$!
+web=""
 stop_daemon() {
+  if [[ -n $web ]] && kill -0 "$web" 2> /dev/null; then
+    kill -TERM "$web"
+    wait "$web" || true
+  fi
   if kill -0 "$daemon" 2> /dev/null; then
     kill -TERM "$daemon"
     wait "$daemon" || true
@@ -35,6 +41,28 @@ done
 [[ -s "$port_file" ]] || { echo "demo: transientd did not start within 30 s" >&2; exit 1; }
 address="127.0.0.1:$(cat "$port_file")"
 echo "demo: transientd serves sim:mirrors on $address (log: $out/transientd.log)"
+
+# The live viewer (docs/web.md) on port 8080, or another free one when 8080 is taken.
+web_port_file="$out/web.port"
+for listen in 127.0.0.1:8080 127.0.0.1:0; do
+  rm -f "$web_port_file"
+  "$transient" web --connect "$address" --listen "$listen" --port-file "$web_port_file" \
+    2> "$out/web.log" &
+  web=$!
+  for _ in $(seq 100); do
+    [[ -s "$web_port_file" ]] && break
+    kill -0 "$web" 2> /dev/null || break
+    sleep 0.1
+  done
+  [[ -s "$web_port_file" ]] && break
+  web=""
+done
+if [[ -n $web ]]; then
+  echo "demo: the live viewer is at http://127.0.0.1:$(cat "$web_port_file")/ for the next" \
+    "${seconds} s (make demo DEMO_SECONDS=300 keeps it longer)"
+else
+  echo "demo: the live viewer did not start; its log: $out/web.log" >&2
+fi
 
 # Also the moment depth map (docs/moment_depth_maps.md): the client computes from it how much
 # of a virtual plane 1.98 m from the camera the real scene (a wall 1.84 to 2.05 m away) hides.

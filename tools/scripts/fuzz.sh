@@ -12,7 +12,7 @@ seconds=${2:?usage: fuzz.sh BUILD_DIR SECONDS [HARNESS...]}
 shift 2
 harnesses=("$@")
 if [[ ${#harnesses[@]} -eq 0 ]]; then
-  harnesses=(config source_uri data_dir image_codec v4l2 kinect2 rpc hdf5)
+  harnesses=(config source_uri data_dir image_codec v4l2 kinect2 rpc hdf5 page_request)
 fi
 root=$(cd "$(dirname "$0")/../.." && pwd)
 

@@ -24,6 +24,7 @@ std::vector<std::unique_ptr<Subcommand>> AllSubcommands() {
   all.push_back(MakeDevicesCommand());
   all.push_back(MakeClientCommand());
   all.push_back(MakeViewCommand());
+  all.push_back(MakeWebCommand());
   all.push_back(MakeEvalCommand());
   return all;
 }
