@@ -3,6 +3,10 @@
 // calls on threads of their own, which hand their results to the I/O thread (net::post).
 #include "transient/web/gateway.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
@@ -16,6 +20,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <random>
 #include <set>
 #include <sstream>
 #include <string>
@@ -27,10 +32,12 @@
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "transient/v1/transient.pb.h"
 #include "transient/web/frame_message.h"
 #include "transient/web/page_request.h"
 #include "transient/wire/address.h"
+#include "transient/wire/credentials.h"
 
 namespace transient::web {
 namespace {
@@ -59,6 +66,24 @@ std::string ContentType(const std::string& name) {
   return "application/octet-stream";
 }
 
+// A key of 128 random bits in hex: the page's URL carries it, its WebSocket must present it.
+std::string NewPageKey() {
+  std::random_device random;  // /dev/urandom
+  std::string key;
+  for (int i = 0; i < 4; ++i) absl::StrAppend(&key, absl::Hex(random(), absl::kZeroPad8));
+  return key;
+}
+
+// The value of `name` in the query of `target` ("/ws?key=abc"), or "".
+std::string QueryValue(const std::string& target, const std::string& name) {
+  const size_t query = target.find('?');
+  if (query == std::string::npos) return "";
+  for (const absl::string_view part : absl::StrSplit(target.substr(query + 1), '&')) {
+    if (absl::StartsWith(part, name + "=")) return std::string(part.substr(name.size() + 1));
+  }
+  return "";
+}
+
 bool PlainName(const std::string& name) {
   return !name.empty() && name.front() != '.' && std::all_of(name.begin(), name.end(), [](char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '_';
@@ -71,8 +96,9 @@ class PageSession;
 class Gateway {
  public:
   Gateway(const GatewayOptions& options, std::map<std::string, std::string> files)
-      : options_(options), files_(std::move(files)) {}
+      : options_(options), files_(std::move(files)), key_(NewPageKey()) {}
 
+  const std::string& key() const { return key_; }
   const GatewayOptions& options() const { return options_; }
   net::io_context& io() { return io_; }
   const std::map<std::string, std::string>& files() const { return files_; }
@@ -104,6 +130,10 @@ class Gateway {
     daemon_ = std::move(daemon);
   }
 
+  // Turns true when the gateway stops: a calibration running for a page is cancelled then.
+  const std::atomic<bool>* stopping() const { return &stopping_; }
+  void Stop() { stopping_.store(true); }
+
   // Queues a page's call for the workers; false when the queue is full.
   bool QueueCall(std::function<void()> call) {
     std::lock_guard<std::mutex> lock(calls_mu_);
@@ -112,7 +142,8 @@ class Gateway {
     calls_cv_.notify_one();
     return true;
   }
-  void Worker(const std::atomic<bool>* stop) {
+  void Worker() {
+    const std::atomic<bool>* stop = &stopping_;
     while (true) {
       std::function<void()> call;
       {
@@ -131,6 +162,8 @@ class Gateway {
  private:
   const GatewayOptions& options_;
   const std::map<std::string, std::string> files_;
+  const std::string key_;
+  std::atomic<bool> stopping_{false};
   net::io_context io_{1};
   uint16_t port_ = 0;
   std::set<std::shared_ptr<PageSession>> pages_;
@@ -224,7 +257,8 @@ class PageSession : public std::enable_shared_from_this<PageSession> {
       }
       absl::StatusOr<std::unique_ptr<google::protobuf::Message>> result = Execute(
           *daemon, *shared,
-          [&](int done, int total) { reply(ReplyProgress(shared->id, done, total)); }, nullptr);
+          [&](int done, int total) { reply(ReplyProgress(shared->id, done, total)); },
+          gateway.stopping());
       reply(result.ok() ? ReplyResult(shared->id, **result)
                         : ReplyError(shared->id, result.status()));
     });
@@ -353,12 +387,20 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return;
     }
     std::string target(request.target());
+    const std::string key = QueryValue(target, "key");
     if (const size_t query = target.find('?'); query != std::string::npos) target.resize(query);
     if (websocket::is_upgrade(request)) {
       const std::string origin(request[http::field::origin]);
       if (target != "/ws" || origin != "http://" + host) {
         Respond(request, http::status::forbidden, "text/plain",
                 "WebSocket only at /ws, from the gateway's own page\n");
+        return;
+      }
+      // Other users of this machine reach the port too: only who has the printed URL may use
+      // the daemon through it.
+      if (!wire::TokensEqual(key, gateway_.key())) {
+        Respond(request, http::status::forbidden, "text/plain",
+                "the page's key is missing or wrong: open the URL transient web printed\n");
         return;
       }
       stream_.expires_never();
@@ -570,24 +612,38 @@ absl::Status RunGateway(const GatewayOptions& options, const std::atomic<bool>* 
         absl::StrCat("cannot listen on ", options.listen, ": ", error.message()));
   }
   gateway.set_port(acceptor.local_endpoint().port());
+  gateway.Log(absl::StrCat("web: the viewer is at http://127.0.0.1:", gateway.port(),
+                           "/?key=", gateway.key()));
+  if (!options.url_file.empty()) {
+    // Readable by this user only: it holds the key.
+    const std::string url =
+        absl::StrCat("http://127.0.0.1:", gateway.port(), "/?key=", gateway.key(), "\n");
+    const int fd = ::open(options.url_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd < 0 || ::fchmod(fd, 0600) != 0 ||
+        ::write(fd, url.data(), url.size()) != static_cast<ssize_t>(url.size())) {
+      if (fd >= 0) ::close(fd);
+      return absl::InvalidArgumentError(
+          absl::StrCat("--url-file ", options.url_file, " cannot be written"));
+    }
+    ::close(fd);
+  }
+  // The port file last: when it is there, so is the URL file.
   if (!options.port_file.empty()) {
     std::ofstream(options.port_file) << gateway.port() << "\n";
   }
-  gateway.Log(absl::StrCat("web: the viewer is at http://127.0.0.1:", gateway.port(), "/"));
   Accept(acceptor, gateway);
 
-  std::atomic<bool> stopping{false};
   std::thread threads[] = {
-      std::thread([&] { DaemonLoop(gateway, &stopping); }),
-      std::thread([&] { StatsLoop(gateway, &stopping); }),
-      std::thread([&] { gateway.Worker(&stopping); }),
-      std::thread([&] { gateway.Worker(&stopping); }),
+      std::thread([&] { DaemonLoop(gateway, gateway.stopping()); }),
+      std::thread([&] { StatsLoop(gateway, gateway.stopping()); }),
+      std::thread([&] { gateway.Worker(); }),
+      std::thread([&] { gateway.Worker(); }),
   };
 
   net::steady_timer watch(gateway.io());
   std::function<void()> check = [&] {
     if (stop != nullptr && stop->load()) {
-      stopping.store(true);
+      gateway.Stop();
       gateway.io().stop();
       return;
     }
@@ -596,7 +652,7 @@ absl::Status RunGateway(const GatewayOptions& options, const std::atomic<bool>* 
   };
   check();
   gateway.io().run();
-  stopping.store(true);
+  gateway.Stop();
   for (std::thread& thread : threads) thread.join();
   return absl::OkStatus();
 }

@@ -134,11 +134,13 @@ before(async () => {
   mkdirSync(join(work, "data"), { recursive: true });
   mkdirSync(OUT, { recursive: true });
   daemonPort = await startDaemon("127.0.0.1:0");
-  const webPortFile = join(work, "web-port");
+  const webPortFile = join(work, "web-port"), urlFile = join(work, "web-url");
   gateway = startProcess("transient web", TRANSIENT, [
     "web", "--connect", `127.0.0.1:${daemonPort}`, "--listen", "127.0.0.1:0",
-    "--port-file", webPortFile, "--bins", "32"]);
-  pageUrl = `http://127.0.0.1:${await readPort(webPortFile, gateway)}/`;
+    "--port-file", webPortFile, "--url-file", urlFile, "--bins", "32"]);
+  await readPort(webPortFile, gateway);
+  pageUrl = readFileSync(urlFile, "utf8").trim();  // with the page's key
+  assert.match(pageUrl, /^http:\/\/127\.0\.0\.1:[0-9]+\/\?key=[0-9a-f]{32}$/);
   browser = await chromium.launch({
     executablePath: CHROMIUM,
     // WebGL2 without a GPU: SwiftShader, which Chromium enables headless only when asked.
@@ -237,6 +239,7 @@ function raw(method, path, headers) {
       response.on("data", (d) => { body += d; });
       response.on("end", () => resolve([response.statusCode, body]));
     });
+    r.on("upgrade", (response, socket) => { socket.destroy(); resolve([response.statusCode, ""]); });
     r.on("error", reject);
     r.end();
   });
@@ -254,10 +257,18 @@ test("the gateway refuses other hosts, other origins, other methods and unknown 
   assert.equal((await raw("GET", "/.hidden", { Host: host }))[0], 404);
   const upgrade = { Host: host, Connection: "Upgrade", Upgrade: "websocket",
                     "Sec-WebSocket-Version": "13", "Sec-WebSocket-Key": "dGhlIHNhbXBsZSBub25jZQ==" };
+  const ours = { ...upgrade, Origin: `http://${host}` };
+  const key = new URL(pageUrl).searchParams.get("key");
+  assert.equal((await raw("GET", `/ws?key=${key}`, ours))[0], 101);
   // Another site open in the same browser may not drive the daemon through the gateway.
-  assert.equal((await raw("GET", "/ws", { ...upgrade, Origin: "http://attacker.example" }))[0], 403);
-  assert.equal((await raw("GET", "/ws", upgrade))[0], 403);  // no Origin: not a page of ours
-  assert.equal((await raw("GET", "/other", { ...upgrade, Origin: `http://${host}` }))[0], 403);
+  assert.equal((await raw("GET", `/ws?key=${key}`, { ...upgrade, Origin: "http://attacker.example" }))[0], 403);
+  assert.equal((await raw("GET", `/ws?key=${key}`, upgrade))[0], 403);  // no Origin: not a page of ours
+  assert.equal((await raw("GET", `/other?key=${key}`, ours))[0], 403);
+  // Nor may another user of this machine, who can reach the port but has not got the URL.
+  const [refused, why] = await raw("GET", "/ws", ours);
+  assert.equal(refused, 403);
+  assert.match(why, /key is missing or wrong/);
+  assert.equal((await raw("GET", `/ws?key=${key.replace(/.$/, (c) => (c === "0" ? "1" : "0"))}`, ours))[0], 403);
 });
 
 test("a request the gateway cannot read is refused and the page goes on", async () => {
@@ -310,7 +321,8 @@ test("a page that reads nothing costs the gateway no memory and the others no fr
   const { port, host } = new URL(pageUrl);
   const stuck = tcpConnect({ host: "127.0.0.1", port: +port });
   await new Promise((resolve) => stuck.once("connect", resolve));
-  stuck.write(`GET /ws HTTP/1.1\r\nHost: ${host}\r\nOrigin: http://${host}\r\n` +
+  const key = new URL(pageUrl).searchParams.get("key");
+  stuck.write(`GET /ws?key=${key} HTTP/1.1\r\nHost: ${host}\r\nOrigin: http://${host}\r\n` +
               "Connection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 13\r\n" +
               "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n");
   const answer = await new Promise((resolve) => stuck.once("data", (d) => resolve(d.toString())));

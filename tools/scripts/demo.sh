@@ -47,7 +47,7 @@ web_port_file="$out/web.port"
 for listen in 127.0.0.1:8080 127.0.0.1:0; do
   rm -f "$web_port_file"
   "$transient" web --connect "$address" --listen "$listen" --port-file "$web_port_file" \
-    2> "$out/web.log" &
+    --url-file "$out/web.url" 2> "$out/web.log" &
   web=$!
   for _ in $(seq 100); do
     [[ -s "$web_port_file" ]] && break
@@ -58,8 +58,9 @@ for listen in 127.0.0.1:8080 127.0.0.1:0; do
   web=""
 done
 if [[ -n $web ]]; then
-  echo "demo: the live viewer is at http://127.0.0.1:$(cat "$web_port_file")/ for the next" \
-    "${seconds} s (make demo DEMO_SECONDS=300 keeps it longer)"
+  for _ in $(seq 50); do [[ -s "$out/web.url" ]] && break; sleep 0.1; done
+  echo "demo: the live viewer is at $(cat "$out/web.url") for the next ${seconds} s" \
+    "(make demo DEMO_SECONDS=300 keeps it longer)"
 else
   echo "demo: the live viewer did not start; its log: $out/web.log" >&2
 fi

@@ -261,7 +261,9 @@ function showSliceLabel() {
 
 // ---------------------------------------------------------------- the gateway
 function connect() {
-  const socket = new WebSocket(`ws://${location.host}/ws`);
+  // The key of the URL that `transient web` printed: the gateway refuses a WebSocket without it.
+  const key = new URLSearchParams(location.search).get("key") || "";
+  const socket = new WebSocket(`ws://${location.host}/ws?key=${encodeURIComponent(key)}`);
   socket.binaryType = "arraybuffer";
   state.socket = socket;
   socket.onopen = () => {

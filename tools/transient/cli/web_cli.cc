@@ -58,7 +58,9 @@ CLI::App* AddWebCommand(CLI::App& app, WebCommandLine& line) {
       "settings (docs/web.md). Prints the page's URL; runs until interrupted.");
   command->footer(
       "The gateway listens on this machine only; to view from another machine, forward the port\n"
-      "(ssh -L 8080:127.0.0.1:8080 HOST). It reaches the daemon with the security options below.\n"
+      "(ssh -L 8080:127.0.0.1:8080 HOST). The URL it prints carries a key made at start: the page\n"
+      "works only with it, since other users of the machine reach the port too. It reaches the\n"
+      "daemon with the security options below.\n"
       "Exit codes: 0 stopped by SIGINT/SIGTERM, 1 the port cannot be bound, 2 bad options.");
   web::GatewayOptions& o = line.options;
   AddSecurityOptions(command, &o.daemon.security);
@@ -67,6 +69,9 @@ CLI::App* AddWebCommand(CLI::App& app, WebCommandLine& line) {
   command->add_option("--listen", o.listen, "address of the page: 127.0.0.1:PORT (0 picks one)")
       ->capture_default_str();
   command->add_option("--port-file", o.port_file, "write the port actually bound into this file");
+  command->add_option("--url-file", o.url_file,
+                      "write the page's URL, with its key, into this file (readable by you only "
+                      "where the directory is)");
   command->add_option("--bins", o.slice_bins, "slices over one period for the transient video")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();

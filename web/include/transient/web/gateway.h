@@ -5,8 +5,9 @@
 // start, served from memory: no path from a request reaches the file system),
 // "/colormap.json" the colour map the page draws with; "/ws" upgrades to the WebSocket.
 // Requests whose Host is not this machine's address and port (DNS rebinding), WebSocket
-// upgrades from another origin (another site in the same browser), and anything but GET are
-// refused.
+// upgrades from another origin (another site in the same browser) or without the page's key
+// (128 random bits made at start, in the URL printed: other users of the machine reach the
+// port too), and anything but GET are refused.
 //
 // Frames (frame_message.h) go to each page as fast as it takes them: a page that is still
 // receiving one when the next arrives has the older unsent one replaced (counted as dropped
@@ -28,6 +29,7 @@ struct GatewayOptions {
   client::ConnectOptions daemon;          // where transientd is and how to reach it
   std::string listen = "127.0.0.1:8080";  // host:port on this machine (wire::IsLoopback)
   std::string port_file = {};             // the port actually bound is written here
+  std::string url_file = {};              // the page's URL with its key is written here
   std::string static_dir;                 // index.html and the files it loads
   std::string colour_map_json;            // served as /colormap.json
   uint32_t slice_bins = 32;               // slices over one period streamed for the video
