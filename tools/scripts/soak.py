@@ -154,20 +154,24 @@ class Soak:
             time.sleep(rng.uniform(0.0, 0.5))
 
     def on_frame(self, record, frame):
+        # Frame.missed counts the frames lost since the previous message, and an announcement
+        # is a message too: frames dropped just before a state change are counted on it.
+        record["missed"] += frame.missed
+        record["pending_missed"] += frame.missed
         if frame.announcement:
             record["states"].append(frame.state)
             if frame.state == "reconnecting":
                 record["outages"] += 1
             return
         record["frames"] += 1
-        record["missed"] += frame.missed
         last = record["last_sequence"]
         if last is not None and frame.sequence != last + 1:
             if frame.sequence <= last:
                 record["sequence_backwards"] += 1
             else:
                 record["gaps"] += 1
-                record["gap_frames"] += frame.sequence - last - 1 - frame.missed
+                record["gap_frames"] += frame.sequence - last - 1 - record["pending_missed"]
+        record["pending_missed"] = 0
         record["last_sequence"] = frame.sequence
 
     # --- the operator --------------------------------------------------------------------
@@ -398,7 +402,7 @@ class Soak:
     def new_record(self, name, kind):
         record = {"name": name, "kind": kind, "frames": 0, "missed": 0, "gaps": 0,
                   "gap_frames": 0, "sequence_backwards": 0, "outages": 0, "stalls": 0,
-                  "connections": 0, "states": [], "last_sequence": None}
+                  "connections": 0, "states": [], "last_sequence": None, "pending_missed": 0}
         self.subscribers.append(record)
         return record
 
@@ -411,6 +415,17 @@ class Soak:
             self.fail(f"too few samples to judge {key}")
             return None, None
         return max(second), max(last)
+
+    def slope_per_hour(self, key):
+        """Least-squares slope of `key` over the run's second half, per hour (a leak shows as a
+        steady slope; allocator settling does not)."""
+        half = [(s["t_s"], s[key]) for s in self.samples if s["t_s"] >= self.samples[-1]["t_s"] / 2]
+        if len(half) < 3:
+            return None
+        mt = sum(t for t, _ in half) / len(half)
+        mv = sum(v for _, v in half) / len(half)
+        den = sum((t - mt) ** 2 for t, _ in half)
+        return 3600.0 * sum((t - mt) * (v - mv) for t, v in half) / den if den else None
 
     def report(self, seconds):
         outages = self.samples[-1]["source_reopens"] if self.samples else 0
@@ -447,17 +462,24 @@ class Soak:
         for name, outcomes in sorted(self.operations.items()):
             print(f"  {name:28s} " + ", ".join(f"{k} {v}" for k, v in sorted(outcomes.items())))
         print(f"recordings: {self.recordings}")
-        print(f"resident memory (MiB, highest of 2nd / last quarter): {rss[0]} / {rss[1]}; "
-              f"descriptors: {fds[0]} / {fds[1]}; threads: {threads[0]} / {threads[1]}; "
+        # (Over a few minutes the slope is the allocator settling, not a rate.)
+        rss_slope = self.slope_per_hour("rss_mib") if self.args.minutes >= 10 else None
+        print(f"resident memory (MiB, highest of 2nd / last quarter): {rss[0]} / {rss[1]}"
+              f" (slope over the second half {rss_slope:+.2f} MiB/h); " if rss_slope is not None
+              else f"resident memory (MiB, highest of 2nd / last quarter): {rss[0]} / {rss[1]}; ",
+              end="")
+        print(f"descriptors: {fds[0]} / {fds[1]}; threads: {threads[0]} / {threads[1]}; "
               f"source reopens {outages}")
         summary = {
             "minutes": self.args.minutes, "unplug_every_s": self.args.unplug_every,
             "unplug_for_s": self.args.unplug_for,
-            "subscribers": [{k: v for k, v in r.items() if k not in ("states", "last_sequence")}
+            "subscribers": [{k: v for k, v in r.items()
+                             if k not in ("states", "last_sequence", "pending_missed")}
                             for r in self.subscribers],
             "operations": self.operations, "recordings": self.recordings,
             "rss_mib": {"second_quarter_max": rss[0], "last_quarter_max": rss[1],
-                        "max": max((s["rss_mib"] for s in self.samples), default=None)},
+                        "max": max((s["rss_mib"] for s in self.samples), default=None),
+                        "second_half_slope_per_hour": rss_slope},
             "fds": {"second_quarter_max": fds[0], "last_quarter_max": fds[1]},
             "threads": {"second_quarter_max": threads[0], "last_quarter_max": threads[1]},
             "last_sample": self.samples[-1] if self.samples else None,
