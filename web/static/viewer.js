@@ -244,6 +244,11 @@ function onFrame(buffer) {
   state.width = header.width;
   state.height = header.height;
   const slices = header.images.filter((i) => i.name.startsWith("slices/")).length;
+  // Only what the source serves can be chosen (a Kinect v2 has no slices, a depth camera may
+  // have no amplitude).
+  for (const option of $("product").options) {
+    option.disabled = option.value === "slices" ? slices === 0 : !images.has(option.value);
+  }
   const slider = $("slice");
   if (+slider.max !== Math.max(0, slices - 1)) slider.max = Math.max(0, slices - 1);
   document.body.dataset.sequence = header.sequence;  // for tests and curious users
