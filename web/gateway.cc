@@ -229,7 +229,12 @@ class PageSession : public std::enable_shared_from_this<PageSession> {
       }
       std::string text = beast::buffers_to_string(self->in_.data());
       self->in_.consume(self->in_.size());
-      self->OnRequest(text);
+      if (self->ws_.got_binary()) {
+        self->SendText(ReplyError(
+            0, absl::InvalidArgumentError("requests are text messages of JSON, not binary")));
+      } else {
+        self->OnRequest(text);
+      }
       self->Read();
     });
   }

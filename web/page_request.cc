@@ -36,6 +36,39 @@ absl::StatusOr<std::unique_ptr<pb::Message>> Boxed(absl::StatusOr<T> result) {
   return std::unique_ptr<pb::Message>(std::make_unique<T>(*std::move(result)));
 }
 
+// Whether `text` is UTF-8 (RFC 3629): no stray continuation bytes, overlong forms, surrogates
+// or code points above U+10FFFF. Replies quote requests, and a WebSocket text message that is
+// not UTF-8 makes the browser drop the connection.
+bool IsUtf8(std::string_view text) {
+  size_t i = 0;
+  while (i < text.size()) {
+    const auto byte = [&](size_t k) { return static_cast<uint8_t>(text[k]); };
+    const uint8_t lead = byte(i);
+    int length = 0;
+    uint32_t code = 0, least = 0;
+    if (lead < 0x80) {
+      ++i;
+      continue;
+    } else if ((lead & 0xe0) == 0xc0) {
+      length = 2, code = lead & 0x1f, least = 0x80;
+    } else if ((lead & 0xf0) == 0xe0) {
+      length = 3, code = lead & 0x0f, least = 0x800;
+    } else if ((lead & 0xf8) == 0xf0) {
+      length = 4, code = lead & 0x07, least = 0x10000;
+    } else {
+      return false;
+    }
+    if (i + length > text.size()) return false;
+    for (int k = 1; k < length; ++k) {
+      if ((byte(i + k) & 0xc0) != 0x80) return false;
+      code = (code << 6) | (byte(i + k) & 0x3f);
+    }
+    if (code < least || code > 0x10ffff || (code >= 0xd800 && code <= 0xdfff)) return false;
+    i += length;
+  }
+  return true;
+}
+
 }  // namespace
 
 std::string MessageJson(const pb::Message& message) {
@@ -52,6 +85,7 @@ absl::StatusOr<PageRequest> ParsePageRequest(std::string_view text, uint64_t* id
     return absl::InvalidArgumentError(
         absl::StrCat("a request of ", text.size(), " bytes; at most ", kMaxPageRequestBytes));
   }
+  if (!IsUtf8(text)) return absl::InvalidArgumentError("a request must be UTF-8 text");
   pb::Struct object;
   if (const auto parsed = pb::util::JsonStringToMessage(std::string(text), &object); !parsed.ok()) {
     return absl::InvalidArgumentError(

@@ -147,6 +147,16 @@ TEST(PageRequest, BadRequestsAreRefusedNamingWhatIsWrong) {
               StatusIs(kInvalid, HasSubstr("request of GetPixel")));
   EXPECT_THAT(ParsePageRequest(std::string(kMaxPageRequestBytes + 1, ' '), &id).status(),
               StatusIs(kInvalid, HasSubstr("at most")));
+  // Found by the page_request fuzz harness: a method name that is not UTF-8 came back quoted
+  // in the refusal, which was then no text a browser accepts.
+  for (const char* bad : {"{\"id\": 1, \"method\": \"G\xc0\xa5\"}", "\xff", "\xed\xa0\x80",
+                          "\xf4\x90\x80\x80", "\xe2\x82"}) {
+    EXPECT_THAT(ParsePageRequest(bad, &id).status(), StatusIs(kInvalid, HasSubstr("UTF-8"))) << bad;
+  }
+  EXPECT_THAT(
+      ParsePageRequest("{\"id\": 1, \"method\": \"\xc3\xa9\xe2\x82\xac\xf0\x9f\x98\x80\"}", &id)
+          .status(),
+      StatusIs(kInvalid, HasSubstr("is not one of")));  // UTF-8, just not a method
 }
 
 TEST(PageRequest, RepliesAreJsonWithTheDaemonsWords) {
