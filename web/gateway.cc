@@ -517,9 +517,13 @@ void DaemonLoop(Gateway& gateway, const std::atomic<bool>* stop) {
     request.set_queue_frames(2);
     std::unique_ptr<client::FrameStream> stream = daemon->StreamFrames(request, {.cancel = stop});
     client::StreamFrame frame;
+    uint64_t missed = 0;  // on announcements too: carried to the next frame the pages see
     while (stream->Next(&frame)) {
       backoff = std::chrono::milliseconds(250);
+      missed += frame.missed;
       if (frame.kind == client::StreamFrame::Kind::kImages) {
+        frame.missed = missed;
+        missed = 0;
         auto message = std::make_shared<const std::string>(EncodeFrameMessage(frame));
         Post(gateway, [&gateway, message] { gateway.BroadcastFrame(message); });
       } else if (frame.kind == client::StreamFrame::Kind::kAnnouncement) {
