@@ -10,6 +10,7 @@
 #include <span>
 
 #include "transient/reconstruct/kernels.h"
+#include "transient/reconstruct/pisarenko.h"
 #include "transient/reconstruct/reconstructor.h"
 
 namespace transient::internal {
@@ -39,7 +40,10 @@ PisarenkoImage AllocatePisarenko(const SolvedImage& solved);
 // then lambda_min > eps c_0 already and biasing would change nothing.
 void SolvePixels(const MomentImage& moments, const SolveOptions& options, bool quick_bias_check,
                  int64_t begin, int64_t end, SolvedImage* solved);
-void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end, PisarenkoImage* result);
+// With a `grid`, each pixel tries PisarenkoByLevinson first and takes Pisarenko() where that
+// declines; without, Pisarenko() alone (the reference).
+void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end, PisarenkoImage* result,
+                     const PisarenkoSearchGrid* grid = nullptr);
 void CumulativePixels(const SolvedImage& solved, std::span<const double> phases, int64_t begin,
                       int64_t end, std::span<float> out);
 void BoundPixels(const SolvedImage& solved, double r, std::span<const double> phases, int64_t begin,

@@ -7,20 +7,30 @@
 
 namespace transient {
 
-bool Levinson(std::span<const Complex> c, std::span<Complex> q) {
+namespace {
+
+// Levinson's recursion with c_0 replaced by `c0`; with `indefinite_last`, its last step may
+// have |d| > 1 (then q = (C - (c_0 - c0) I)^{-1} e_0 all the same, with q_0 < 0).
+LevinsonOutcome LevinsonSteps(std::span<const Complex> c, double c0, bool indefinite_last,
+                              std::span<Complex> q) {
   assert(c.size() == q.size() && !c.empty() && c.size() <= kMaxMoments);
   const int m = static_cast<int>(c.size()) - 1;
-  const double c0 = c[0].real();
-  if (!(c0 > 0.0) || !std::isfinite(c0)) return false;
+  if (!(c0 > 0.0) || !std::isfinite(c0)) return LevinsonOutcome::kFailed;
   q[0] = 1.0 / c0;
   std::array<Complex, kMaxMoments> reversed;
+  bool indefinite = false;
   for (int l = 1; l <= m; ++l) {
     // d is the reflection coefficient of step l; |d| < 1 iff the leading (l+1)x(l+1) minor
     // of C(c) is positive definite (given that the l x l one is).
     Complex d = 0.0;
     for (int k = 0; k < l; ++k) d += q[k] * c[l - k];
     const double norm_d = std::norm(d);
-    if (!(norm_d < 1.0)) return false;  // also catches NaN
+    if (!(norm_d < 1.0)) {  // also catches NaN
+      if (!(indefinite_last && l == m && norm_d > 1.0 && std::isfinite(norm_d))) {
+        return LevinsonOutcome::kFailed;
+      }
+      indefinite = true;
+    }
     const double scale = 1.0 / (1.0 - norm_d);
     for (int k = 0; k < l; ++k) reversed[k + 1] = std::conj(q[l - 1 - k]);
     reversed[0] = 0.0;
@@ -28,7 +38,19 @@ bool Levinson(std::span<const Complex> c, std::span<Complex> q) {
     for (int k = 0; k <= l; ++k) q[k] = scale * (q[k] - d * reversed[k]);
   }
   q[0] = Complex(q[0].real(), 0.0);  // real in exact arithmetic
-  return std::isfinite(q[0].real());
+  if (!std::isfinite(q[0].real())) return LevinsonOutcome::kFailed;
+  return indefinite ? LevinsonOutcome::kLastStepIndefinite : LevinsonOutcome::kPositiveDefinite;
+}
+
+}  // namespace
+
+bool Levinson(std::span<const Complex> c, std::span<Complex> q) {
+  return LevinsonSteps(c, c[0].real(), /*indefinite_last=*/false, q) ==
+         LevinsonOutcome::kPositiveDefinite;
+}
+
+LevinsonOutcome ShiftedLevinson(std::span<const Complex> c, double shift, std::span<Complex> q) {
+  return LevinsonSteps(c, c[0].real() - shift, /*indefinite_last=*/true, q);
 }
 
 void InverseLevinson(std::span<const Complex> q, std::span<Complex> c) {

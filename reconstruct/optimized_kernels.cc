@@ -4,6 +4,8 @@
 //   beta_k sin k phi) whose coefficients are computed once per pixel and whose cos/sin tables
 //   are shared by all pixels (thesis eq. 8.4), so all pixels x all phases is a small matrix
 //   product followed by a reciprocal, vectorized over pixels;
+// - Pisarenko per pixel by PisarenkoByLevinson (optimized_pisarenko.cc), the reference's
+//   Pisarenko() where that declines;
 // - OpenMP threads over blocks of pixels for everything, including the per-pixel solvers
 //   (Pisarenko, cumulative, bounds) that stay scalar.
 // The series is summed in double: near a sharp peak it cancels to ~eps^2/(m+1)^2 of a_0, which
@@ -145,8 +147,10 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
 
 PisarenkoImage EstimatePisarenko(const SolvedImage& solved) {
   PisarenkoImage result = internal::AllocatePisarenko(solved);
+  if (solved.order < 1) return result;
+  const PisarenkoSearchGrid grid(solved.order);
   internal::ParallelBlocks(solved.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
-    internal::PisarenkoPixels(solved, begin, end, &result);
+    internal::PisarenkoPixels(solved, begin, end, &result, &grid);
   });
   return result;
 }

@@ -107,8 +107,8 @@ void SolvePixels(const MomentImage& moments, const SolveOptions& options, bool q
   }
 }
 
-void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end,
-                     PisarenkoImage* result) {
+void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end, PisarenkoImage* result,
+                     const PisarenkoSearchGrid* grid) {
   const int64_t pixels = solved.geometry.pixel_count();
   std::array<Complex, kMaxMoments> c_storage;
   const std::span<Complex> c(c_storage.data(), solved.order + 1);
@@ -116,7 +116,8 @@ void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end,
   for (int64_t p = begin; p < end; ++p) {
     if (!solved.valid(p)) continue;
     solved.moments(p, c);
-    if (!Pisarenko(c, &estimate)) continue;
+    const bool fast = grid != nullptr && PisarenkoByLevinson(c, *grid, &estimate);
+    if (!fast && !Pisarenko(c, &estimate)) continue;
     result->uniform[p] = static_cast<float>(estimate.uniform);
     for (int l = 0; l < estimate.count; ++l) {
       result->phase[l * pixels + p] = static_cast<float>(estimate.phase[l]);

@@ -13,6 +13,17 @@ namespace transient {
 // Only Re c_0 is read. On success q_0 = e_0^* C^{-1} e_0 > 0 is real.
 [[nodiscard]] bool Levinson(std::span<const Complex> c, std::span<Complex> q);
 
+// Levinson's recursion for C(c) - shift I, also just past lambda_min (Newton's method on it
+// finds lambda_min: optimized_pisarenko.cc):
+// - kPositiveDefinite: C(c) - shift I is positive definite, and q = (C(c) - shift I)^{-1} e_0
+//   with q_0 > 0;
+// - kLastStepIndefinite: its leading m x m minor is positive definite and C(c) - shift I is
+//   not, but is invertible: q as above, with q_0 < 0 (lambda_min < shift < the minor's);
+// - kFailed: neither (shift at or beyond the minor's lambda_min, singular, or not finite).
+enum class LevinsonOutcome { kPositiveDefinite, kLastStepIndefinite, kFailed };
+[[nodiscard]] LevinsonOutcome ShiftedLevinson(std::span<const Complex> c, double shift,
+                                              std::span<Complex> q);
+
 // The inverse map: c from q = C^{-1}(c) e_0 (thesis alg. B.3, Landau 1987). Requires that q
 // came from a positive-definite C(c), i.e. that its polynomial has no root in the closed unit
 // disc (thesis lemma B.9); asserted in debug builds via q_0 > 0.

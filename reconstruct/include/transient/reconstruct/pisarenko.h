@@ -4,6 +4,7 @@
 
 #include <array>
 #include <span>
+#include <vector>
 
 #include "transient/reconstruct/moments.h"
 
@@ -25,5 +26,33 @@ struct PisarenkoEstimate {
 // Returns false for non-finite input or c_0 <= 0. Exact for m-sparse measures
 // (lambda_min = 0). Returns with weight <= 0 (rounding in degenerate cases) are dropped.
 [[nodiscard]] bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate);
+
+// The tables of PisarenkoByLevinson's search on the unit circle for order m, shared by all
+// pixels: e^{i (j - m/2) phi_g} for j = 0..m at the 16 (m+1) phases phi_g = 2 pi g / size.
+class PisarenkoSearchGrid {
+ public:
+  explicit PisarenkoSearchGrid(int m);
+  int order() const { return order_; }
+  int size() const { return size_; }
+  const double* real(int j) const { return re_.data() + j * size_; }
+  const double* imag(int j) const { return im_.data() + j * size_; }
+  double unit_real(int g) const { return unit_re_[g]; }  // cos phi_g
+  double unit_imag(int g) const { return unit_im_[g]; }  // sin phi_g
+
+ private:
+  int order_;
+  int size_;
+  std::vector<double> re_, im_;  // (m+1) planes of size()
+  std::vector<double> unit_re_, unit_im_;
+};
+
+// The same estimate as Pisarenko() by a faster route (optimized_pisarenko.cc): lambda_min by
+// Newton's method on Levinson's recursion, the roots as sign changes on the unit circle, the
+// least-squares systems by their normal equations. Returns false, leaving *estimate
+// unspecified, wherever it cannot vouch for the result (including every input for which
+// Pisarenko() returns false, and degenerate or nearly degenerate ones): run Pisarenko() then.
+// grid.order() must be c.size() - 1.
+[[nodiscard]] bool PisarenkoByLevinson(std::span<const Complex> c, const PisarenkoSearchGrid& grid,
+                                       PisarenkoEstimate* estimate);
 
 }  // namespace transient
