@@ -10,12 +10,13 @@ seconds=${2:-10}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
+daemon_args=()  # more transientd options for the next case
 run_case() {  # name source products [client options...]
   local name=$1 source=$2 products=$3
   shift 3
   rm -f "$work/port"
   "$build/service/transientd" --source "$source" --listen 127.0.0.1:0 --port-file "$work/port" \
-    --stats-interval 1000 2> "$work/$name.log" &
+    --stats-interval 1000 "${daemon_args[@]}" 2> "$work/$name.log" &
   local daemon=$!
   for _ in $(seq 600); do [[ -s "$work/port" ]] && break; sleep 0.1; done
   "$build/tools/transient/transient" client --connect "127.0.0.1:$(cat "$work/port")" \
@@ -45,3 +46,10 @@ run_case "640x480 m=4 fast replay" "replay:$work/vga.h5?loop=1&pace=fast" "range
 "$build/tools/transient/transient" sim mirrors --out "$work/kinect.h5" --frames 30 \
   --set camera=kinect2 --deflate 0 > /dev/null
 run_case "512x424 Kinect v2 fast replay" "replay:$work/kinect.h5?loop=1&pace=fast" "depth"
+# Pisarenko's first return as the range (range_method = pisarenko) at VGA, m = 3.
+"$build/tools/transient/transient" sim mirrors --out "$work/vga3.h5" --frames 30 --width 640 \
+  --height 480 --m 3 --deflate 0 > /dev/null
+echo "range_method = pisarenko" > "$work/pisarenko.conf"
+daemon_args=(--config "$work/pisarenko.conf")
+run_case "640x480 m=3 Pisarenko replay" "replay:$work/vga3.h5?loop=1&pace=fast" "range"
+daemon_args=()
