@@ -44,8 +44,11 @@ void SolvePixels(const MomentImage& moments, const SolveOptions& options, bool q
 // declines; without, Pisarenko() alone (the reference).
 void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end, PisarenkoImage* result,
                      const PisarenkoSearchGrid* grid = nullptr);
+// With the phases' cosines and sines, by MeseCumulative::Evaluate (the optimized kernels);
+// without, by MeseCumulative::operator() at each phase (the reference).
 void CumulativePixels(const SolvedImage& solved, std::span<const double> phases, int64_t begin,
-                      int64_t end, std::span<float> out);
+                      int64_t end, std::span<float> out, std::span<const double> cosines = {},
+                      std::span<const double> sines = {});
 void BoundPixels(const SolvedImage& solved, double r, std::span<const double> phases, int64_t begin,
                  int64_t end, std::span<float> lower, std::span<float> upper);
 

@@ -5,7 +5,8 @@
 //   are shared by all pixels (thesis eq. 8.4), so all pixels x all phases is a small matrix
 //   product followed by a reciprocal, vectorized over pixels;
 // - Pisarenko per pixel by PisarenkoByLevinson (optimized_pisarenko.cc), the reference's
-//   Pisarenko() where that declines;
+//   Pisarenko() where that declines; the cumulative's logarithms as real log and atan
+//   (MeseCumulative::Evaluate) with the phases' cosines and sines tabled once;
 // - OpenMP threads over blocks of pixels for everything, including the per-pixel solvers
 //   (Pisarenko, cumulative, bounds) that stay scalar.
 // The series is summed in double: near a sharp peak it cancels to ~eps^2/(m+1)^2 of a_0, which
@@ -178,8 +179,13 @@ void DensitySlices(const SolvedImage& solved, std::span<const double> phases,
 void CumulativeSlices(const SolvedImage& solved, std::span<const double> phases,
                       std::span<float> out) {
   assert(out.size() == phases.size() * solved.geometry.pixel_count());
+  std::vector<double> cosines(phases.size()), sines(phases.size());
+  for (size_t n = 0; n < phases.size(); ++n) {
+    cosines[n] = std::cos(phases[n]);
+    sines[n] = std::sin(phases[n]);
+  }
   internal::ParallelBlocks(solved.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
-    internal::CumulativePixels(solved, phases, begin, end, out);
+    internal::CumulativePixels(solved, phases, begin, end, out, cosines, sines);
   });
 }
 

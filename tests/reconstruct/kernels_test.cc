@@ -113,14 +113,17 @@ TEST_P(Kernels, CumulativeAndBoundsMatchTheReference) {
   std::vector<float> expected(phases.size() * pixels), got(expected.size());
   reference::CumulativeSlices(solved, phases, expected);
   optimized::CumulativeSlices(solved, phases, got);
+  double worst = 0.0;
   for (size_t i = 0; i < got.size(); ++i) {
     const int64_t p = static_cast<int64_t>(i) % pixels;
     if (std::isnan(expected[i])) {
       EXPECT_TRUE(std::isnan(got[i]));
     } else {
       EXPECT_NEAR(got[i], expected[i], kCumulativeTolerance * solved.c0(p));
+      worst = std::max(worst, std::abs(got[i] - expected[i]) / solved.c0(p));
     }
   }
+  RecordProperty("worst_cumulative_error_of_c0", absl::StrCat(worst));
   std::vector<float> lower(got.size()), upper(got.size()), ref_lower(got.size()),
       ref_upper(got.size());
   reference::BoundSlices(solved, 0.8, phases, ref_lower, ref_upper);

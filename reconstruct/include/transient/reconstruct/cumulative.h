@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <span>
 
 #include "transient/reconstruct/moments.h"
@@ -26,6 +27,15 @@ class MeseCumulative {
   double operator()(double phase) const;
 
   bool closed_form() const { return closed_form_; }
+
+  // The same values at many phases, for the optimized kernels: out[n * stride] = F at phase
+  // phases[n], whose cosines and sines are given (one table for all pixels). In closed form the
+  // Log of each term is taken as log|w| and atan(Im w / Re w), w = 1 - e^{i phi}/x_l in the
+  // right half-plane (|x_l| > 1). glibc's complex log is accurate to the last bit of log|w|
+  // near |w| = 1 and so spends most of operator()'s time (sorting its terms for a compensated
+  // sum), which a sum of c_0-sized terms does not need. Otherwise each phase by quadrature.
+  void Evaluate(std::span<const double> phases, std::span<const double> cosines,
+                std::span<const double> sines, float* out, int64_t stride) const;
 
  private:
   double Quadrature(double phase) const;
