@@ -20,12 +20,24 @@ struct Score {
   double value, slope, curvature;
 };
 
+// x^n for 1 <= n <= kMaxOrder by binary powering: at most 8 products (~8 ulp), where
+// std::polar(1, n * angle) would cost a sine and cosine per harmonic.
+std::complex<double> Power(std::complex<double> x, int n) {
+  std::complex<double> result = 1.0;
+  for (; n > 0; n >>= 1) {
+    if (n & 1) result *= x;
+    x *= x;
+  }
+  return result;
+}
+
 Score Evaluate(std::span<const std::complex<double>> c, std::span<const int> harmonics,
                double theta) {
   Score s{0.0, 0.0, 0.0};
+  const std::complex<double> unit = std::polar(1.0, -theta);
   for (size_t i = 0; i < c.size(); ++i) {
     const double j = harmonics[i];
-    const std::complex<double> z = c[i] * std::polar(1.0, -j * theta);
+    const std::complex<double> z = c[i] * Power(unit, harmonics[i]);
     s.value += z.real();
     s.slope += j * z.imag();
     s.curvature -= j * j * z.real();
@@ -81,7 +93,7 @@ UnwrappedPixel UnwrapPixel(std::span<const ComplexF> moments, const UnwrapOption
   size_t top = 0;      // index of the highest harmonic J
   for (size_t i = 0; i < count; ++i) {
     c[i] = std::complex<double>(moments[i].real(), moments[i].imag());
-    total += std::abs(c[i]);
+    total += std::sqrt(std::norm(c[i]));  // floats squared: no overflow, so no hypot
     if (harmonics[i] > harmonics[top]) top = i;
   }
   UnwrappedPixel out;
@@ -101,17 +113,20 @@ UnwrappedPixel UnwrapPixel(std::span<const ComplexF> moments, const UnwrapOption
   const int highest = harmonics[top];
   const double theta0 = std::arg(c[top]) / highest;
   std::complex<double> z[kMaxOrder], step[kMaxOrder];
+  const std::complex<double> start = std::polar(1.0, -theta0);
+  const std::complex<double> spacing = std::polar(1.0, -kTwoPi / highest);
   for (size_t i = 0; i < count; ++i) {
-    z[i] = c[i] * std::polar(1.0, -harmonics[i] * theta0);
-    step[i] = std::polar(1.0, -kTwoPi * harmonics[i] / highest);
+    z[i] = c[i] * Power(start, harmonics[i]);
+    step[i] = Power(spacing, harmonics[i]);
   }
   double best = -std::numeric_limits<double>::infinity(), second = best;
   int best_n = 0;
   for (int n = 0; n < highest; ++n) {
     double score = 0.0;
-    for (size_t i = 0; i < count; ++i) {
+    for (size_t i = 0; i < count; ++i) {  // z_i *= step_i in real arithmetic (finite values)
       score += z[i].real();
-      z[i] *= step[i];
+      const double re = z[i].real() * step[i].real() - z[i].imag() * step[i].imag();
+      z[i] = {re, z[i].real() * step[i].imag() + z[i].imag() * step[i].real()};
     }
     if (score > best) {
       second = best;
@@ -127,13 +142,13 @@ UnwrappedPixel UnwrapPixel(std::span<const ComplexF> moments, const UnwrapOption
   double theta = theta0 + kTwoPi * best_n / highest;
   const double max_step = 0.25 * kTwoPi / highest;
   double best_theta = theta;
+  Score s = Evaluate({c, count}, harmonics, theta);
   for (int k = 0; k < options.newton_steps; ++k) {
-    const Score s = Evaluate({c, count}, harmonics, theta);
     if (!(s.curvature < 0.0)) break;  // not at a maximum: keep the best point so far
     theta -= std::clamp(s.slope / s.curvature, -max_step, max_step);
-    const double value = Evaluate({c, count}, harmonics, theta).value;
-    if (!(value > best)) break;
-    best = value;
+    s = Evaluate({c, count}, harmonics, theta);  // its slope and curvature serve the next step
+    if (!(s.value > best)) break;
+    best = s.value;
     best_theta = theta;
   }
   theta = best_theta;
