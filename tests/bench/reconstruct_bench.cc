@@ -9,6 +9,7 @@
 #include "tools/transient/commands/bench_command.h"
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/levinson.h"
+#include "transient/reconstruct/phase_unwrapping.h"
 
 namespace transient {
 namespace {
@@ -100,6 +101,25 @@ void BM_Pisarenko(benchmark::State& state) {
                          benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_Pisarenko)->Apply(Arguments)->Unit(benchmark::kMillisecond);
+
+// Three-frequency phase unwrapping at the Kinect v2's size and harmonics (10, 2, 15 of 8 MHz),
+// on the machine's threads (UnwrapImage's own OpenMP loop): the depth cameras' range.
+void BM_UnwrapKinect(benchmark::State& state) {
+  const MomentImage image = tools::MakeBenchFrame({512, 424}, 15);
+  UnwrapOptions options;
+  options.base_frequency_hz = 8e6;
+  options.harmonics = {10, 2, 15};
+  std::vector<float> range, amplitude, confidence;
+  std::vector<uint8_t> flags;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(
+        UnwrapImage(image, options, &range, &amplitude, &confidence, &flags).ok());
+  }
+  state.counters["pixels/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations() * image.geometry.pixel_count()),
+                         benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_UnwrapKinect)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace transient
