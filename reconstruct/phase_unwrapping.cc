@@ -20,7 +20,7 @@ struct Score {
   double value, slope, curvature;
 };
 
-// x^n for 0 <= n <= kMaxOrder by binary powering: at most 8 products (~8 ulp), where
+// x^n for 0 <= n <= kMaxOrder by binary powering: at most 10 products (~10 ulp), where
 // std::polar(1, n * angle) would cost a sine and cosine per harmonic.
 std::complex<double> Power(std::complex<double> x, int n) {
   std::complex<double> result = 1.0;
