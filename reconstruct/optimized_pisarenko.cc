@@ -12,10 +12,11 @@
 //    near lambda_min is the distance left to it. From below, lambda + q_0 / |q|^2 is the
 //    Rayleigh quotient of q, so the step lands at or above lambda_min; from above, the steps
 //    approached it monotonically in every case traced. ShiftedLevinson says on which side an
-//    iterate is, and a step that leaves the bracket is bisected instead. q then points along the eigenvector of lambda_min
-//    (q ~ u conj(u_0) / (lambda_min - lambda)), as in inverse iteration. Steps from just above
-//    the leading minor's lambda_min (a pole of f) are short; on frames of three returns with
-//    noise this takes 5.6, 8.8 and 10.9 recursions a pixel at m = 3, 4 and 8.
+//    iterate is, and a step that leaves the bracket is bisected instead. q then points along
+//    the eigenvector of lambda_min (q ~ u conj(u_0) / (lambda_min - lambda)), as in inverse
+//    iteration. Steps from just below the leading minor's lambda_min (a pole of f) are short;
+//    on frames of three returns with noise this takes 5.6, 8.8 and 10.9 recursions a pixel
+//    at m = 3, 4 and 8.
 // 2. The roots of P(x) = sum_j conj(q_j) x^j, all on the unit circle for a simple lambda_min
 //    (Pisarenko 1973), bracketed by the sign changes of a real function of the phase: the
 //    eigenvector of a Hermitian Toeplitz matrix is conjugate-persymmetric,
