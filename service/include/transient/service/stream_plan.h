@@ -1,0 +1,67 @@
+// A subscriber's stream of the daemon's frames, planned and encoded: a StreamRequest checked
+// and resolved against the sensor and the schedule (StreamPlan), and each published frame as
+// the v1::Frame that plan sends. One home for what a gRPC stream (server.cc) and the NATS
+// publisher (nats_publisher.h) send, so that both carry the same bytes.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/time/time.h"
+#include "transient/service/pipeline.h"
+#include "transient/service/subscription.h"
+#include "transient/v1/transient.pb.h"
+#include "transient/wire/image_codec.h"
+
+namespace transient::service {
+
+inline constexpr int kDefaultSlices = 64;
+inline constexpr int kDefaultQueueFrames = 4;
+inline constexpr int kMaxQueueFrames = 64;
+inline constexpr int64_t kMaxQueueBytes = int64_t{256} << 20;
+
+// A subscriber's request, checked and resolved against the sensor.
+struct StreamPlan {
+  ProductRequest request;
+  std::vector<v1::Product> products;  // in the order asked, without repeats
+  wire::PixelRect rect;
+  v1::Encoding encoding = v1::FLOAT32;
+  v1::Compression compression = v1::COMPRESSION_NONE;
+  absl::Duration min_interval = absl::ZeroDuration();
+  int queue_frames = kDefaultQueueFrames;
+};
+
+// Checks `request` against the pipeline's sensor and schedule: InvalidArgument naming the
+// field, FailedPrecondition for a product the schedule cannot serve.
+absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& request, const Pipeline& pipeline);
+
+// FailedPrecondition for a product the schedule cannot serve, naming what is missing; OK
+// otherwise (GetInfo lists the products this accepts).
+absl::Status CheckScheduleServes(std::span<const v1::Product> products,
+                                 bool moment_depth_of_returns, const ScheduleOptions& schedule);
+
+// What EncodeProducts's result depends on besides the frame: streams whose plans have the same
+// key share one encoding of each frame (PublishedFrame::encoded).
+std::string EncodingKey(const StreamPlan& plan);
+
+// Fills `frame` with the planned products of `products`. false when one is missing.
+absl::StatusOr<bool> EncodeProducts(const StreamPlan& plan, const FrameProducts& products,
+                                    v1::Frame* frame);
+
+// The message of a published frame with images (not an announcement) for a stream of `plan`
+// (`key` = EncodingKey(plan)): its images encoded once per plan and shared through
+// `published.encoded`, its sequence, times, ROI and `missed`. nullopt when the frame was
+// published before the plan's products were computed.
+absl::StatusOr<std::optional<v1::Frame>> FrameForStream(const StreamPlan& plan,
+                                                        const std::string& key,
+                                                        const PublishedFrame& published,
+                                                        uint64_t missed);
+
+v1::SourceState ToProto(SourceState state);
+google::protobuf::Timestamp ToTimestamp(absl::Time t);
+
+}  // namespace transient::service
