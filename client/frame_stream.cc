@@ -12,6 +12,38 @@
 
 namespace transient::client {
 
+void DecodeStreamMessage(const v1::Frame& wire, absl::Time arrival, StreamFrame* frame,
+                         StreamCounts* counts, absl::Status* last_corruption) {
+  *frame = StreamFrame{};
+  frame->arrival = arrival;
+  frame->sequence = wire.sequence();
+  frame->capture_time_s = wire.capture_time_s();
+  frame->state = wire.state();
+  frame->missed = wire.missed();
+  counts->missed += wire.missed();
+  if (wire.has_publish_time() && std::isfinite(wire.latency_s())) {
+    const absl::Time published = absl::FromUnixSeconds(wire.publish_time().seconds()) +
+                                 absl::Nanoseconds(wire.publish_time().nanos());
+    frame->latency_s = wire.latency_s() + absl::ToDoubleSeconds(frame->arrival - published);
+  }
+  if (wire.images_size() == 0) {
+    frame->kind = StreamFrame::Kind::kAnnouncement;
+    ++counts->announcements;
+    return;
+  }
+  absl::StatusOr<std::vector<DecodedImage>> images = DecodeFrame(wire);
+  if (!images.ok()) {
+    frame->kind = StreamFrame::Kind::kCorrupt;
+    frame->corruption = images.status();
+    *last_corruption = images.status();
+    ++counts->corrupt;
+    return;
+  }
+  frame->kind = StreamFrame::Kind::kImages;
+  frame->images = *std::move(images);
+  ++counts->frames;
+}
+
 FrameStream::FrameStream(std::shared_ptr<grpc::Channel> channel, std::string address,
                          const v1::StreamRequest& request, const StreamOptions& options)
     : address_(std::move(address)), stub_(v1::Transient::NewStub(std::move(channel))) {
@@ -30,34 +62,7 @@ bool FrameStream::Next(StreamFrame* frame) {
     ended_ = true;
     return false;
   }
-  *frame = StreamFrame{};
-  frame->arrival = absl::Now();
-  frame->sequence = wire.sequence();
-  frame->capture_time_s = wire.capture_time_s();
-  frame->state = wire.state();
-  frame->missed = wire.missed();
-  counts_.missed += wire.missed();
-  if (wire.has_publish_time() && std::isfinite(wire.latency_s())) {
-    const absl::Time published = absl::FromUnixSeconds(wire.publish_time().seconds()) +
-                                 absl::Nanoseconds(wire.publish_time().nanos());
-    frame->latency_s = wire.latency_s() + absl::ToDoubleSeconds(frame->arrival - published);
-  }
-  if (wire.images_size() == 0) {
-    frame->kind = StreamFrame::Kind::kAnnouncement;
-    ++counts_.announcements;
-    return true;
-  }
-  absl::StatusOr<std::vector<DecodedImage>> images = DecodeFrame(wire);
-  if (!images.ok()) {
-    frame->kind = StreamFrame::Kind::kCorrupt;
-    frame->corruption = images.status();
-    last_corruption_ = images.status();
-    ++counts_.corrupt;
-    return true;
-  }
-  frame->kind = StreamFrame::Kind::kImages;
-  frame->images = *std::move(images);
-  ++counts_.frames;
+  DecodeStreamMessage(wire, absl::Now(), frame, &counts_, &last_corruption_);
   return true;
 }
 

@@ -24,6 +24,7 @@
 #include "transient/wire/grpc_status.h"
 #include "transient/wire/image_codec.h"
 #include "transient/wire/product_registry.h"
+#include "transient/service/nats_publisher.h"
 #include "transient/service/stream_plan.h"
 #include "transient/v1/transient.grpc.pb.h"
 
@@ -109,8 +110,12 @@ SolvedImage SinglePixel(const SolvedImage& s, int64_t p) {
 
 class TransientServer::Service final : public v1::Transient::Service {
  public:
-  Service(Pipeline* pipeline, std::string version, std::shared_ptr<const Access> access)
-      : pipeline_(pipeline), version_(std::move(version)), access_(std::move(access)) {}
+  Service(Pipeline* pipeline, std::string version, std::shared_ptr<const Access> access,
+          const NatsPublisher* nats)
+      : pipeline_(pipeline),
+        version_(std::move(version)),
+        access_(std::move(access)),
+        nats_(nats) {}
 
   grpc::Status GetInfo(grpc::ServerContext* context, const v1::GetInfoRequest*,
                        v1::Info* info) override {
@@ -293,6 +298,23 @@ class TransientServer::Service final : public v1::Transient::Service {
       o->set_value(c.value);
       o->set_description(c.description);
     }
+    if (nats_ != nullptr) {
+      const NatsPublishStats n = nats_->Stats();
+      v1::NatsStats* o = out->mutable_nats();
+      o->set_servers(n.servers);
+      o->set_camera(n.camera);
+      o->set_connected(n.connected);
+      o->set_frames_published(n.frames_published);
+      o->set_messages_published(n.messages_published);
+      o->set_messages_acknowledged(n.messages_acknowledged);
+      o->set_messages_failed(n.messages_failed);
+      o->set_frames_dropped_disconnected(n.frames_dropped_disconnected);
+      o->set_frames_dropped_behind(n.frames_dropped_behind);
+      o->set_frames_dropped_error(n.frames_dropped_error);
+      o->set_disconnects(n.disconnects);
+      o->set_reconnects(n.reconnects);
+      o->set_last_error(n.last_error);
+    }
     return grpc::Status::OK;
   }
 
@@ -437,6 +459,7 @@ class TransientServer::Service final : public v1::Transient::Service {
   Pipeline* const pipeline_;
   const std::string version_;
   const std::shared_ptr<const Access> access_;
+  const NatsPublisher* const nats_;
 };
 
 namespace {
@@ -457,7 +480,8 @@ class WithoutReflection final : public grpc::ServerBuilderOption {
 absl::StatusOr<std::unique_ptr<TransientServer>> TransientServer::Start(
     Pipeline* pipeline, const ServerOptions& options) {
   std::unique_ptr<TransientServer> server(new TransientServer());
-  server->service_ = std::make_unique<Service>(pipeline, options.version, options.access);
+  server->service_ = std::make_unique<Service>(pipeline, options.version, options.access,
+                                               options.nats);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;

@@ -5,7 +5,7 @@
 //              [--config FILE] [--port-file FILE] [--data-dir DIR]
 //              [--data-quota BYTES] [--data-quota-files N]
 //              [--tls-cert FILE --tls-key FILE] [--client-ca FILE] [--token-file FILE]
-//              [--insecure]
+//              [--insecure] [--publish nats://HOST:PORT[,...] [--nats-* ...]]
 //
 // SIGINT/SIGTERM: the recording in progress is closed (readable), streams end, exit 0.
 
@@ -19,6 +19,8 @@
 
 #include "CLI/CLI.hpp"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "transient/wire/product_registry.h"
 #include "transient/wire/address.h"
 #include "absl/time/clock.h"
 #include "transient/drivers/calibration_capture.h"
@@ -26,6 +28,7 @@
 #include "transient/formats/calibration_file.h"
 #include "transient/service/access.h"
 #include "transient/service/data_dir.h"
+#include "transient/service/nats_publisher.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
 
@@ -103,6 +106,12 @@ int Run(int argc, char** argv) {
   std::string data_dir = DefaultDataDir();
   DataQuota quota;
   AccessOptions access_options;
+  NatsPublishOptions nats;
+  std::string nats_products = "moment_state";
+  std::string nats_encoding = "float32";
+  bool nats_zstd = false;
+  double nats_max_age_s = 3600.0;
+  int64_t nats_max_bytes = int64_t{1} << 30;
   app.add_option("--source", source_uri,
                  "capture source URI (the schemes and their keys are listed below, and by "
                  "`transient sources`)")
@@ -147,6 +156,37 @@ int Run(int argc, char** argv) {
   app.add_flag("--insecure", access_options.insecure,
                "allow --listen on a non-loopback address without TLS and authentication: anyone "
                "who reaches the port may record, calibrate and reconfigure");
+  app.add_option("--publish", nats.connect.servers,
+                 "also publish each frame's products to NATS JetStream at these servers "
+                 "(nats://HOST:PORT or tls://HOST:PORT, comma-separated: one cluster), to "
+                 "subjects transient.<camera>.<product> kept by the stream TRANSIENT_<camera>");
+  app.add_option("--nats-camera", nats.camera,
+                 "the camera's name in the subjects and the stream (A-Z a-z 0-9 _ -)")
+      ->capture_default_str();
+  app.add_option("--nats-products", nats_products,
+                 "comma-separated products to publish (as `transient client --products`); "
+                 "moment_state carries every other product's input")
+      ->capture_default_str();
+  app.add_option("--nats-encoding", nats_encoding, "float32, float16 or mm (range and depth)")
+      ->capture_default_str();
+  app.add_flag("--nats-zstd", nats_zstd, "compress each image with zstd");
+  app.add_option("--nats-max-age", nats_max_age_s,
+                 "seconds the stream keeps a frame (0 = no limit)")
+      ->capture_default_str();
+  app.add_option("--nats-max-bytes", nats_max_bytes,
+                 "bytes the stream keeps, oldest frames removed first, e.g. 1GiB (0 = no limit)")
+      ->transform(CLI::AsSizeValue(/*kb_is_1000=*/true));
+  app.add_option("--nats-replicas", nats.replicas,
+                 "copies of the stream a NATS cluster keeps (1..5)")
+      ->capture_default_str();
+  app.add_option("--nats-user-file", nats.connect.user_file,
+                 "a file holding user:password for the NATS server (not readable by others)");
+  app.add_option("--nats-creds", nats.connect.creds_file,
+                 "a NATS .creds file (user JWT and nkey seed; not readable by others)");
+  app.add_option("--nats-ca", nats.connect.ca_file, "PEM CA of the NATS server's certificate (TLS)");
+  app.add_option("--nats-cert", nats.connect.cert_file,
+                 "PEM client certificate for the NATS server, with --nats-key");
+  app.add_option("--nats-key", nats.connect.key_file, "the PEM key of --nats-cert");
   app.add_option("--stats-interval", stats_interval_s, "seconds between stats lines in the log")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -215,10 +255,43 @@ int Run(int argc, char** argv) {
       return 2;
     }
   }
+  std::unique_ptr<NatsPublisher> publisher;
+  if (!nats.connect.servers.empty()) {
+    for (absl::string_view name : absl::StrSplit(nats_products, ',', absl::SkipWhitespace())) {
+      const wire::ProductSpec* spec = wire::FindProduct(name);
+      if (spec == nullptr) {
+        std::cerr << "transientd: --nats-products: unknown product '" << name << "'\n";
+        return 2;
+      }
+      nats.request.add_products(spec->product);
+    }
+    const std::optional<v1::Encoding> encoding = wire::FindEncoding(nats_encoding);
+    if (!encoding) {
+      std::cerr << "transientd: --nats-encoding '" << nats_encoding
+                << "': expected float32, float16 or mm\n";
+      return 2;
+    }
+    nats.request.set_encoding(*encoding);
+    nats.request.set_compression(nats_zstd ? v1::ZSTD : v1::COMPRESSION_NONE);
+    nats.max_age = absl::Seconds(nats_max_age_s);
+    nats.max_bytes = nats_max_bytes;
+    absl::StatusOr<std::unique_ptr<NatsPublisher>> started =
+        NatsPublisher::Start(pipeline->get(), nats);
+    if (!started.ok()) {
+      std::cerr << "transientd: --publish: " << started.status().message() << "\n";
+      return 2;
+    }
+    publisher = *std::move(started);
+    const NatsPublishStats n = publisher->Stats();
+    Log(absl::StrCat("publishing to NATS at ", n.servers, " (", n.connected ? "connected" : "not reachable yet, retrying",
+                     "): subjects ", wire::NatsCameraSubjects(nats.camera), ", stream ",
+                     wire::NatsStreamName(nats.camera)));
+  }
   absl::StatusOr<std::unique_ptr<TransientServer>> server =
       TransientServer::Start(pipeline->get(), {.listen = listen,
                                                .version = TRANSIENT_VERSION,
-                                               .access = shared_access});
+                                               .access = shared_access,
+                                               .nats = publisher.get()});
   if (!server.ok()) {
     std::cerr << "transientd: " << server.status().message() << "\n";
     return 2;
@@ -243,6 +316,7 @@ int Run(int argc, char** argv) {
                    ": closing the recording, ending streams"));
   (*pipeline)->Stop();
   (*server)->Shutdown(absl::Seconds(2));
+  if (publisher != nullptr) publisher->Stop();
   Log("stopped");
   return 0;
 }

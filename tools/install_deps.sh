@@ -22,6 +22,7 @@ packages=(
   python3 python3-numpy python3-h5py python3-grpcio python3-protobuf python3-zstandard
   openssl util-linux libfuzzer-15-dev
   libboost-dev chromium
+  nats-server libnats-dev
 )
 # Node.js and npm: Debian's, unless the machine has its own (NodeSource's nodejs carries npm and
 # conflicts with Debian's npm package).

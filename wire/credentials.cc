@@ -71,6 +71,23 @@ absl::StatusOr<std::string> ReadPemFile(absl::string_view what, const std::strin
   return pem;
 }
 
+absl::StatusOr<std::pair<std::string, std::string>> ReadUserPasswordFile(
+    absl::string_view what, const std::string& path) {
+  absl::StatusOr<std::string> line = ReadSecretFile(what, path, /*secret=*/true);
+  if (!line.ok()) return line.status();
+  while (!line->empty() && (line->back() == '\n' || line->back() == '\r')) line->pop_back();
+  const size_t colon = line->find(':');
+  if (colon == std::string::npos || colon == 0 || line->find('\n') != std::string::npos) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, " ", path, ": expected one line \"user:password\""));
+  }
+  return std::make_pair(line->substr(0, colon), line->substr(colon + 1));
+}
+
+absl::Status CheckSecretFile(absl::string_view what, const std::string& path) {
+  return ReadSecretFile(what, path, /*secret=*/true).status();
+}
+
 bool TokensEqual(absl::string_view given, absl::string_view expected) {
   // Every byte of `expected` is looked at, against `given` or against 0 beyond its end; the
   // differences are OR-ed, never branched on. The length of `given` only picks the operand.

@@ -59,6 +59,12 @@ struct StreamCounts {
   uint64_t missed = 0;        // sum of StreamFrame::missed
 };
 
+// Decodes one message of a frame stream (transientd's gRPC stream or its NATS subjects) that
+// arrived at `arrival` into *frame, and counts it in *counts; a corrupt frame's reason also goes
+// to *last_corruption.
+void DecodeStreamMessage(const v1::Frame& wire, absl::Time arrival, StreamFrame* frame,
+                         StreamCounts* counts, absl::Status* last_corruption);
+
 // Made by Client::StreamFrames. Next and Finish are for one thread; Cancel for any thread,
 // while the stream exists.
 class FrameStream {

@@ -17,6 +17,8 @@ class Server;
 
 namespace transient::service {
 
+class NatsPublisher;
+
 struct ServerOptions {
   std::string listen = wire::kDefaultAddress;  // host:port; port 0 = one chosen by the system
   std::string version = "";
@@ -24,6 +26,9 @@ struct ServerOptions {
   // reflection is off when calls need a token or a client certificate); nullptr = plain text,
   // every call accepted (Access::Load decides whether that may serve `listen`).
   std::shared_ptr<const Access> access = nullptr;
+  // The NATS publisher whose counters GetStats reports (Stats.nats); null = none. Not owned;
+  // it must outlive the server.
+  const NatsPublisher* nats = nullptr;
 };
 
 class TransientServer {

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
@@ -29,6 +30,16 @@ inline constexpr size_t kMaxTokenBytes = 4096;
 // empty or holds no "-----BEGIN " block.
 [[nodiscard]] absl::StatusOr<std::string> ReadPemFile(absl::string_view what,
                                                       const std::string& path, bool secret);
+
+// The user name and password in `path`: "user:password" on one line (a NATS server's
+// `authorization { user, password }`). InvalidArgument naming `what` and the path when it cannot
+// be read, others may read it, or it holds no ':' or an empty user.
+[[nodiscard]] absl::StatusOr<std::pair<std::string, std::string>> ReadUserPasswordFile(
+    absl::string_view what, const std::string& path);
+
+// OK when `path` is a regular file that other users cannot read (a secret a library
+// reads itself, e.g. a NATS .creds file); InvalidArgument naming `what` and the path otherwise.
+[[nodiscard]] absl::Status CheckSecretFile(absl::string_view what, const std::string& path);
 
 // Whether `given` equals `expected`, in a time that depends only on expected.size(): a wrong
 // token takes as long to refuse as any other of the same length, whatever prefix it shares.
