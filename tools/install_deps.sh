@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package that building, testing and the demo need (openssl makes the
 # security tests' certificates; util-linux's unshare gives the full-disk test its own tmpfs;
-# Boost.Beast serves the web viewer, and Chromium with Node.js runs its browser tests), then the
+# Boost.Beast serves the web viewer, Chromium with Node.js runs its browser tests, nats-server
+# and cnats carry frames between machines and test that), then the
 # browser tests' npm packages from tests/web/package-lock.json (npm ci: playwright-core, which
 # drives Debian's Chromium and downloads no browser).
 # Idempotent: apt-get skips what is already there. Uses sudo when not root.
