@@ -14,6 +14,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "absl/strings/match.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "tools/transient/client/product_images.h"
@@ -22,6 +23,7 @@
 #include "transient/client/client.h"
 #include "transient/client/decoded_image.h"
 #include "transient/client/frame_stream.h"
+#include "transient/client/nats_stream.h"
 #include "transient/formats/atomic_output.h"
 #include "transient/v1/transient.pb.h"
 #include "transient/wire/image_codec.h"
@@ -52,6 +54,21 @@ std::vector<v1::Product> RequestedProducts(const std::vector<std::string>& names
     }
   }
   return products;
+}
+
+// --nats-start: "new", "all" or "seq:N" (N >= 1).
+absl::StatusOr<std::pair<client::NatsStreamOptions::Start, uint64_t>> ParseNatsStart(
+    const std::string& text) {
+  using Start = client::NatsStreamOptions::Start;
+  if (text == "new") return std::make_pair(Start::kNew, uint64_t{0});
+  if (text == "all") return std::make_pair(Start::kAll, uint64_t{0});
+  uint64_t sequence = 0;
+  if (absl::StartsWith(text, "seq:") && absl::SimpleAtoi(text.substr(4), &sequence) &&
+      sequence >= 1) {
+    return std::make_pair(Start::kSequence, sequence);
+  }
+  return absl::InvalidArgumentError(absl::StrCat(
+      "--nats-start '", text, "': expected new, all or seq:N (a stream sequence >= 1)"));
 }
 
 }  // namespace
@@ -139,6 +156,20 @@ absl::Status ClientArgs::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("--moment-bits = ", moment_bits, ": expected 64 or 128"));
   }
+  if (!nats.servers.empty()) {
+    if (absl::StatusOr<std::vector<std::string>> servers = wire::ParseNatsServers(nats.servers);
+        !servers.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat("--nats: ", servers.status().message()));
+    }
+    if (absl::Status status = wire::CheckNatsCameraName(nats_camera); !status.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat("--nats-camera: ", status.message()));
+    }
+    if (RequestedProducts(products).size() != 1) {
+      return absl::InvalidArgumentError(
+          "--products: with --nats, exactly one (each product has its own subject)");
+    }
+    if (!ParseNatsStart(nats_start).ok()) return ParseNatsStart(nats_start).status();
+  }
   if (virtual_plane_m && (!std::isfinite(*virtual_plane_m) || !(*virtual_plane_m > 0.0))) {
     return absl::InvalidArgumentError(absl::StrCat(
         "--virtual-plane = ", *virtual_plane_m, ": expected a depth > 0 m"));
@@ -165,36 +196,45 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   summary.address = args.connect;
   summary.output_dir = args.output_dir;
 
-  absl::StatusOr<client::Client> daemon = client::Client::Connect(
-      {.address = args.connect,
-       .security = args.security,
-       .timeout_s = args.connect_timeout_s,
-       .cancel = hooks.cancel});
-  if (!daemon.ok()) return daemon.status();
-  absl::StatusOr<v1::Info> got_info = daemon->GetInfo();
-  if (!got_info.ok()) return got_info.status();
-  const v1::Info& info = *got_info;
-  summary.source_uri = info.source_uri();
-  summary.version = info.version();
-  summary.camera_width = static_cast<int>(std::min<uint32_t>(info.camera().width(), INT32_MAX));
-  summary.camera_height =
-      static_cast<int>(std::min<uint32_t>(info.camera().height(), INT32_MAX));
-  if (info.products_size() > 0) {
-    std::vector<std::string> missing;
-    for (const v1::Product product : products) {
-      if (std::find(info.products().begin(), info.products().end(), product) ==
-          info.products().end()) {
-        missing.push_back(ProductStem(product));
+  // gRPC: the daemon itself; --nats: a camera's subject on NATS JetStream, no daemon to ask.
+  const bool over_nats = !args.nats.servers.empty();
+  std::optional<client::Client> daemon;
+  if (over_nats) {
+    summary.address = absl::StrCat("nats:", args.nats.servers);
+    summary.source_uri = wire::NatsSubject(args.nats_camera, products.front());
+  } else {
+    absl::StatusOr<client::Client> connected = client::Client::Connect(
+        {.address = args.connect,
+         .security = args.security,
+         .timeout_s = args.connect_timeout_s,
+         .cancel = hooks.cancel});
+    if (!connected.ok()) return connected.status();
+    daemon.emplace(*std::move(connected));
+    absl::StatusOr<v1::Info> got_info = daemon->GetInfo();
+    if (!got_info.ok()) return got_info.status();
+    const v1::Info& info = *got_info;
+    summary.source_uri = info.source_uri();
+    summary.version = info.version();
+    summary.camera_width = static_cast<int>(std::min<uint32_t>(info.camera().width(), INT32_MAX));
+    summary.camera_height =
+        static_cast<int>(std::min<uint32_t>(info.camera().height(), INT32_MAX));
+    if (info.products_size() > 0) {
+      std::vector<std::string> missing;
+      for (const v1::Product product : products) {
+        if (std::find(info.products().begin(), info.products().end(), product) ==
+            info.products().end()) {
+          missing.push_back(ProductStem(product));
+        }
       }
-    }
-    if (!missing.empty()) {
-      std::vector<std::string> offered;
-      for (const int product : info.products()) {
-        offered.push_back(ProductStem(product));
+      if (!missing.empty()) {
+        std::vector<std::string> offered;
+        for (const int product : info.products()) {
+          offered.push_back(ProductStem(product));
+        }
+        return absl::InvalidArgumentError(absl::StrCat(
+            "--products ", absl::StrJoin(missing, ","), ": not offered by transientd at ",
+            args.connect, " (it offers ", absl::StrJoin(offered, ", "), ")"));
       }
-      return absl::InvalidArgumentError(absl::StrCat(
-          "--products ", absl::StrJoin(missing, ","), ": not offered by transientd at ",
-          args.connect, " (it offers ", absl::StrJoin(offered, ", "), ")"));
     }
   }
 
@@ -223,26 +263,52 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   std::vector<DecodedImage> last_images;
   absl::Time first_arrival, last_arrival;
   const absl::Time opened = absl::Now();
-  std::unique_ptr<client::FrameStream> stream = daemon->StreamFrames(
-      request, {.cancel = hooks.cancel,
-                .deadline = args.seconds > 0.0 ? opened + absl::Seconds(args.seconds)
-                                               : absl::InfiniteFuture()});
-  // Frames with images, corrupt ones included: they count towards --frames as they arrive.
-  const auto received = [&stream] {
-    return stream->counts().frames + stream->counts().corrupt;
+  const absl::Time deadline =
+      args.seconds > 0.0 ? opened + absl::Seconds(args.seconds) : absl::InfiniteFuture();
+  std::unique_ptr<client::FrameStream> grpc_stream;
+  std::unique_ptr<client::NatsFrameStream> nats_stream;
+  if (over_nats) {
+    client::NatsStreamOptions options;
+    options.connect = args.nats;
+    options.camera = args.nats_camera;
+    options.product = products.front();
+    const auto start = *ParseNatsStart(args.nats_start);  // checked by Validate
+    options.start = start.first;
+    options.start_sequence = std::max<uint64_t>(1, start.second);
+    options.cancel = hooks.cancel;
+    options.deadline = deadline;
+    absl::StatusOr<std::unique_ptr<client::NatsFrameStream>> opened_nats =
+        client::NatsFrameStream::Open(options);
+    if (!opened_nats.ok()) return opened_nats.status();
+    nats_stream = *std::move(opened_nats);
+  } else {
+    grpc_stream = daemon->StreamFrames(request, {.cancel = hooks.cancel, .deadline = deadline});
+  }
+  // One loop for both transports: they yield the same StreamFrame.
+  const auto next = [&](client::StreamFrame* f) {
+    return grpc_stream != nullptr ? grpc_stream->Next(f) : nats_stream->Next(f);
   };
+  const auto counts = [&]() -> const client::StreamCounts& {
+    return grpc_stream != nullptr ? grpc_stream->counts() : nats_stream->counts();
+  };
+  // Frames with images, corrupt ones included: they count towards --frames as they arrive.
+  const auto received = [&] { return counts().frames + counts().corrupt; };
   client::StreamFrame frame;
-  while (received() < target && !hooks.cancelled() && stream->Next(&frame)) {
+  while (received() < target && !hooks.cancelled() && next(&frame)) {
     switch (frame.kind) {
       case client::StreamFrame::Kind::kAnnouncement:
-        summary.state_changes.push_back({.after_frames = stream->counts().frames,
+        summary.state_changes.push_back({.after_frames = counts().frames,
                                          .state = v1::SourceState_Name(frame.state)});
         continue;
       case client::StreamFrame::Kind::kCorrupt:
         break;  // dropped; counted by the stream
       case client::StreamFrame::Kind::kImages:
         last_images = std::move(frame.images);
-        if (stream->counts().frames == 1) first_arrival = frame.arrival;
+        if (counts().frames == 1) first_arrival = frame.arrival;
+        if (over_nats && summary.camera_width == 0 && !last_images.empty()) {
+          summary.camera_width = last_images.front().geometry.width;  // what was published
+          summary.camera_height = last_images.front().geometry.height;
+        }
         last_arrival = frame.arrival;
         if (std::isfinite(frame.latency_s)) latencies_ms.push_back(1e3 * frame.latency_s);
         break;
@@ -251,15 +317,17 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   }
   // OK when the daemon ended it cleanly or we did (enough frames, --seconds); Cancelled when
   // interrupted; otherwise the daemon's status.
-  const absl::Status end = stream->Finish();
+  const absl::Status end = grpc_stream != nullptr ? grpc_stream->Finish() : nats_stream->Finish();
   const bool interrupted = hooks.cancelled();
-  summary.frames = stream->counts().frames;
-  summary.corrupt_frames = stream->counts().corrupt;
-  summary.state_announcements = stream->counts().announcements;
-  summary.frames_missed = stream->counts().missed;
+  summary.frames = counts().frames;
+  summary.corrupt_frames = counts().corrupt;
+  summary.state_announcements = counts().announcements;
+  summary.frames_missed = counts().missed;
   // The source's own counters at the end (a camera's dropped sequences); none when the daemon
-  // is gone.
-  if (absl::StatusOr<v1::Stats> stats = daemon->GetStats(); stats.ok()) {
+  // is gone or not asked (NATS).
+  if (absl::StatusOr<v1::Stats> stats =
+          daemon ? daemon->GetStats() : absl::StatusOr<v1::Stats>(absl::UnavailableError(""));
+      stats.ok()) {
     std::vector<std::pair<std::string, int64_t>> counters;
     for (const v1::SourceCounter& c : stats->source_counters()) {
       counters.emplace_back(c.name(), c.value());
@@ -302,7 +370,7 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
 
   if (!stream_error.ok()) {
     return WithContext(
-        absl::StrCat("stream from transientd at ", args.connect, " failed after ",
+        absl::StrCat("stream from ", summary.address, " failed after ",
                      summary.frames, " frames (what arrived is in ", args.output_dir, ")"),
         written.ok() ? stream_error
                      : absl::Status(stream_error.code(),

@@ -13,6 +13,7 @@
 #include "tools/transient/common/command_hooks.h"
 #include "transient/client/client.h"
 #include "transient/wire/address.h"
+#include "transient/wire/nats.h"
 
 namespace transient::tools {
 
@@ -41,6 +42,14 @@ struct ClientArgs {
   double max_rate_hz = 0.0;          // at most this many frames a second; 0 = every frame
   double connect_timeout_s = 5.0;    // how long to wait for the daemon, > 0
   client::ChannelSecurity security = {};  // TLS, client certificate, token (files)
+
+  // --nats: receive from NATS JetStream instead of gRPC (README, "Many cameras, many
+  // machines"): the frames transientd --publish put on transient.<nats_camera>.<product>, one
+  // product. nats_start: "new" (frames from now on), "all" (every frame the stream keeps, then
+  // live) or "seq:N" (from the stream's message N, then live).
+  wire::NatsConnectOptions nats = {};  // nats.servers empty = gRPC
+  std::string nats_camera = "camera";
+  std::string nats_start = "new";
 
   // moment_depth (MOMENT_DEPTH): the map asked for (v1::MomentDepthRequest), and the depth of
   // a virtual plane, facing the camera, whose occlusion by the real scene the client computes
