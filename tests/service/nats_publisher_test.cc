@@ -9,12 +9,16 @@
 #include <atomic>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <thread>
+
+#include "absl/strings/str_join.h"
 
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/nats_server.h"
+#include "tests/support/network.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
 #include "tests/support/subprocess.h"
@@ -313,6 +317,124 @@ TEST(NatsPublisher, BadOptionsAreRefusedNamingWhatIsWrong) {
   EXPECT_TRUE(WaitUntil([&] { return (*waiting)->Stats().messages_acknowledged > 0; },
                         absl::Seconds(30)))
       << (*waiting)->Stats().last_error;
+}
+
+// The stream's state as the cluster reports it: its leader's name and its message count.
+struct StreamState {
+  std::string leader;
+  uint64_t messages = 0;
+};
+std::optional<StreamState> GetStreamState(wire::NatsConnection& connection,
+                                          const std::string& camera) {
+  jsStreamInfo* info = nullptr;
+  jsErrCode code = static_cast<jsErrCode>(0);
+  if (js_GetStreamInfo(&info, connection.jetstream(), wire::NatsStreamName(camera).c_str(),
+                       nullptr, &code) != NATS_OK) {
+    return std::nullopt;
+  }
+  StreamState state;
+  state.messages = info->State.Msgs;
+  if (info->Cluster != nullptr && info->Cluster->Leader != nullptr) {
+    state.leader = info->Cluster->Leader;
+  }
+  jsStreamInfo_Destroy(info);
+  return state;
+}
+
+TEST(NatsCluster, KillingTheStreamLeaderWhilePublishingLosesNoAcknowledgedFrame) {
+  // Three servers on loopback routed to each other, one JetStream cluster.
+  const int routes[3] = {::transient::testing::ClosedPort(), ::transient::testing::ClosedPort(),
+                         ::transient::testing::ClosedPort()};
+  std::vector<std::unique_ptr<NatsServer>> nodes;
+  std::string urls;
+  for (int n = 0; n < 3; ++n) {
+    std::vector<std::string> peers;
+    for (int k = 0; k < 3; ++k) {
+      if (k != n) peers.push_back(absl::StrCat("nats://127.0.0.1:", routes[k]));
+    }
+    nodes.push_back(std::make_unique<NatsServer>(std::vector<std::string>{
+        "-n", absl::StrCat("node", n), "--cluster_name", "transient", "--cluster",
+        absl::StrCat("nats://127.0.0.1:", routes[n]), "--routes", absl::StrJoin(peers, ",")}));
+    ASSERT_TRUE(nodes.back()->running());
+    absl::StrAppend(&urls, n > 0 ? "," : "", nodes.back()->url());
+  }
+  Daemon daemon(kCamera);
+  NatsPublishOptions options;
+  options.connect.servers = urls;
+  options.camera = "rig";
+  options.replicas = 3;
+  options.connect.timeout_ms = 1000;  // retries below come round sooner
+  // The cluster elects its JetStream leaders in a few seconds: until then the stream cannot be
+  // made.
+  absl::StatusOr<std::unique_ptr<NatsPublisher>> publisher;
+  ASSERT_TRUE(WaitUntil(
+      [&] {
+        publisher = NatsPublisher::Start(&daemon.pipeline(), options);
+        return publisher.ok();
+      },
+      absl::Seconds(60)))
+      << publisher.status();
+  NatsStreamOptions live_options;
+  live_options.connect.servers = urls;
+  live_options.camera = "rig";
+  live_options.deadline = absl::Now() + absl::Seconds(90);
+  absl::StatusOr<std::unique_ptr<NatsFrameStream>> live = NatsFrameStream::Open(live_options);
+  ASSERT_THAT(live.status(), IsOk());
+  StreamFrame frame;
+  ASSERT_TRUE(NextImages(**live, &frame));
+  ASSERT_TRUE(WaitUntil([&] { return (*publisher)->Stats().messages_acknowledged >= 10; },
+                        absl::Seconds(30)));
+
+  absl::StatusOr<std::unique_ptr<wire::NatsConnection>> admin =
+      wire::NatsConnection::Open({.servers = urls}, /*background=*/false);
+  ASSERT_THAT(admin.status(), IsOk());
+  const std::optional<StreamState> before = GetStreamState(**admin, "rig");
+  ASSERT_TRUE(before.has_value());
+  ASSERT_FALSE(before->leader.empty());
+  const int leader = before->leader.back() - '0';
+  ASSERT_TRUE(leader >= 0 && leader < 3) << before->leader;
+  nodes[leader]->Kill();
+  const uint64_t acknowledged_at_kill = (*publisher)->Stats().messages_acknowledged;
+
+  // Publishing goes on through the other two: 20 more frames acknowledged.
+  EXPECT_TRUE(WaitUntil(
+      [&] { return (*publisher)->Stats().messages_acknowledged >= acknowledged_at_kill + 20; },
+      absl::Seconds(60)))
+      << (*publisher)->Stats().last_error;
+  // The live consumer continues past the kill.
+  const uint64_t seen = frame.sequence;
+  bool continued = false;
+  while (!continued && NextImages(**live, &frame)) continued = frame.sequence > seen + 20;
+  EXPECT_TRUE(continued);
+  (*publisher)->Stop();  // waits for the outstanding acknowledgements
+  const NatsPublishStats stats = (*publisher)->Stats();
+
+  // Every acknowledged message is in the stream: a consumer from the start reads at least as
+  // many, frames in order, none corrupt.
+  std::optional<StreamState> after;
+  ASSERT_TRUE(WaitUntil([&] { return (after = GetStreamState(**admin, "rig")).has_value(); },
+                        absl::Seconds(30)));
+  EXPECT_GE(after->messages, stats.messages_acknowledged);
+  NatsStreamOptions replay_options = live_options;
+  replay_options.start = NatsStreamOptions::Start::kAll;
+  replay_options.deadline = absl::Now() + absl::Seconds(60);
+  replay_options.connect.timeout_ms = 1000;
+  // A new consumer waits for the cluster to settle after the kill (its JetStream API may time
+  // out while leaders are elected again).
+  absl::StatusOr<std::unique_ptr<NatsFrameStream>> replay;
+  ASSERT_TRUE(WaitUntil([&] { return (replay = NatsFrameStream::Open(replay_options)).ok(); },
+                        absl::Seconds(60)))
+      << replay.status();
+  uint64_t last = 0;
+  int64_t frames = 0;
+  while ((*replay)->stream_sequence() < after->messages && NextImages(**replay, &frame)) {
+    EXPECT_GT(frame.sequence, last);
+    last = frame.sequence;
+    ++frames;
+  }
+  EXPECT_EQ((*replay)->stream_sequence(), after->messages);
+  EXPECT_GE(static_cast<uint64_t>(frames), stats.messages_acknowledged);  // a message a frame
+  EXPECT_EQ((*replay)->counts().corrupt, 0);
 }
 
 }  // namespace
