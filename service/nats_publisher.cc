@@ -39,7 +39,7 @@ absl::StatusOr<std::unique_ptr<NatsPublisher>> NatsPublisher::Start(Pipeline* pi
   p->pipeline_ = pipeline;
   p->options_ = std::move(options);
   p->plan_ = *std::move(plan);
-  p->key_ = EncodingKey(p->plan_);
+  p->key_ = wire::EncodingKey(p->plan_.images);
 
   jsOptions js;
   jsOptions_Init(&js);
@@ -137,16 +137,16 @@ bool NatsPublisher::PublishFrame(const v1::Frame& frame) {
   if (max_payload <= kHeaderRoom) return false;
   const std::string sequence = absl::StrCat(frame.sequence());
   const std::string capture = absl::StrFormat("%.9f", frame.capture_time_s());
-  const std::string encoding = absl::StrCat(v1::Encoding_Name(plan_.encoding), "/",
-                                            v1::Compression_Name(plan_.compression));
+  const std::string encoding = absl::StrCat(v1::Encoding_Name(plan_.images.encoding), "/",
+                                            v1::Compression_Name(plan_.images.compression));
   jsPubOptions publish;
   jsPubOptions_Init(&publish);
   publish.MaxWait = options_.connect.timeout_ms;  // an unacknowledged message fails after this
-  for (v1::Product product : plan_.products) {
+  for (v1::Product product : plan_.images.products) {
     // One product's images per subject; a single product is the frame as it is.
     v1::Frame one;
     const v1::Frame* message = &frame;
-    if (plan_.products.size() > 1) {
+    if (plan_.images.products.size() > 1) {
       one = frame;
       one.clear_images();
       for (const v1::Image& image : frame.images()) {

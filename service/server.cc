@@ -324,7 +324,7 @@ class TransientServer::Service final : public v1::Transient::Service {
     absl::Time last_sent = absl::InfinitePast();
     uint64_t missed_pending = 0;
     uint64_t sent = 0;
-    const std::string key = EncodingKey(plan);
+    const std::string key = wire::EncodingKey(plan.images);
     while (!context->IsCancelled()) {
       uint64_t missed = 0;
       std::shared_ptr<const PublishedFrame> published = subscription.Next(kPollInterval, &missed);

@@ -14,10 +14,6 @@ namespace transient::service {
 namespace {
 
 using ::transient::wire::CheckEncoding;
-using ::transient::wire::EncodeBytePlane;
-using ::transient::wire::EncodeFloatPlane;
-using ::transient::wire::EncodeMomentDepth;
-using ::transient::wire::ImageKind;
 using ::transient::wire::PixelRect;
 using ::transient::wire::ProductSpec;
 using ::transient::wire::ResolveRoi;
@@ -43,30 +39,6 @@ std::string DepthCameraServes(const ScheduleOptions& schedule) {
                       "FLAGS and MOMENT_DEPTH of its depth");
 }
 
-
-// Names an encoded image of `kind` (index: its slice or harmonic) as the registry says.
-void Label(ImageKind kind, int index, v1::Image* image) {
-  image->set_name(wire::ImageName(kind, index));
-  image->set_product(wire::Image(kind).product);
-  image->set_unit(wire::WireUnit(kind, image->encoding()));
-}
-
-// Adds one float plane as an image; false when the frame lacks it (asked for after the frame's
-// products were chosen).
-absl::StatusOr<bool> AddFloat(const StreamPlan& plan, const FrameProducts& products,
-                              std::span<const float> plane, ImageKind kind, v1::Frame* frame,
-                              int index = 0, double time_ns = 0.0) {
-  if (plane.size() != static_cast<size_t>(products.geometry.pixel_count())) return false;
-  v1::Image* image = frame->add_images();
-  if (absl::Status status = EncodeFloatPlane(plane, products.geometry, plan.rect, plan.encoding,
-                                             plan.compression, image);
-      !status.ok()) {
-    return status;
-  }
-  Label(kind, index, image);
-  image->set_time_of_flight_ns(time_ns);  // 0 (proto3: not sent) for all but slices
-  return true;
-}
 
 }  // namespace
 
@@ -149,10 +121,10 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
                                                      "; expected ", ValidProductNames()));
     }
     const auto product = static_cast<v1::Product>(p);
-    if (!plan.request.products.Has(product)) plan.products.push_back(product);
+    if (!plan.request.products.Has(product)) plan.images.products.push_back(product);
     plan.request.products.Add(product);
   }
-  if (absl::Status status = CheckScheduleServes(plan.products, r.moment_depth().from_returns(),
+  if (absl::Status status = CheckScheduleServes(plan.images.products, r.moment_depth().from_returns(),
                                                 pipeline.schedule().options());
       !status.ok()) {
     return status;
@@ -160,19 +132,19 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
   const ImageGeometry sensor = pipeline.camera().geometry;
   absl::StatusOr<PixelRect> rect = ResolveRoi(r.roi(), sensor);
   if (!rect.ok()) return rect.status();
-  plan.rect = *rect;
+  plan.images.rect = *rect;
   if (!v1::Encoding_IsValid(r.encoding())) {
     return absl::InvalidArgumentError(absl::StrCat("encoding: unknown encoding ", r.encoding()));
   }
-  plan.encoding = r.encoding() == v1::ENCODING_UNSPECIFIED ? v1::FLOAT32 : r.encoding();
-  for (v1::Product product : plan.products) {
-    if (absl::Status status = CheckEncoding(product, plan.encoding); !status.ok()) return status;
+  plan.images.encoding = r.encoding() == v1::ENCODING_UNSPECIFIED ? v1::FLOAT32 : r.encoding();
+  for (v1::Product product : plan.images.products) {
+    if (absl::Status status = CheckEncoding(product, plan.images.encoding); !status.ok()) return status;
   }
   if (!v1::Compression_IsValid(r.compression())) {
     return absl::InvalidArgumentError(
         absl::StrCat("compression: unknown compression ", r.compression()));
   }
-  plan.compression = r.compression();
+  plan.images.compression = r.compression();
   if (!std::isfinite(r.max_rate_hz()) || r.max_rate_hz() < 0.0) {
     return absl::InvalidArgumentError(absl::StrCat(
         "max_rate_hz = ", r.max_rate_hz(), ": expected a finite rate >= 0 (0 = every frame)"));
@@ -190,16 +162,18 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
         ResolveSlicePhases(spec, pipeline.schedule().options().base_frequency_hz, sensor);
     if (!phases.ok()) return phases.status();
     plan.request.slice_phases = *std::move(phases);
+    plan.images.slice_phases = plan.request.slice_phases;
   }
   if (plan.request.products.Has(v1::MOMENT_DEPTH)) {
     absl::StatusOr<MomentDepthSpec> spec = ResolveMomentDepthSpec(
         r.moment_depth(), sensor, pipeline.schedule().options().UnambiguousRangeM());
     if (!spec.ok()) return spec.status();
     plan.request.moment_depth = *spec;
+    plan.images.moment_depth = *spec;
   }
   // A client that stops reading holds its queue: bound what that can keep alive.
   int64_t planes = 0;
-  for (v1::Product product : plan.products) {
+  for (v1::Product product : plan.images.products) {
     planes += wire::PlanesPerFrame(product, pipeline.schedule().order(),
                                    static_cast<int>(plan.request.slice_phases.size()));
   }
@@ -215,118 +189,6 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
 }
 
 
-// What EncodeProducts's result depends on besides the frame: streams whose plans have the same
-// key share one encoding of each frame (PublishedFrame::encoded). Phases as hexadecimal floats:
-// exact.
-std::string EncodingKey(const StreamPlan& plan) {
-  std::string key;
-  for (v1::Product p : plan.products) absl::StrAppend(&key, static_cast<int>(p), ",");
-  absl::StrAppend(&key, "|", plan.rect.x, ",", plan.rect.y, ",", plan.rect.width, ",",
-                  plan.rect.height, "|", static_cast<int>(plan.encoding), "|",
-                  static_cast<int>(plan.compression), "|");
-  for (double phase : plan.request.slice_phases) absl::StrAppend(&key, absl::StrFormat("%a,", phase));
-  const MomentDepthSpec& m = plan.request.moment_depth;
-  absl::StrAppend(&key, "|",
-                  absl::StrFormat("%a,%a,%a,%d,%d", m.near_m, m.far_m, m.sigma_px,
-                                  static_cast<int>(m.format), m.from_returns ? 1 : 0));
-  return key;
-}
-
-// Fills `frame` with the planned products of `products`. false when one is missing.
-absl::StatusOr<bool> EncodeProducts(const StreamPlan& plan, const FrameProducts& products,
-                                    v1::Frame* frame) {
-  const size_t pixels = static_cast<size_t>(products.geometry.pixel_count());
-  for (v1::Product product : plan.products) {
-    absl::StatusOr<bool> added = true;
-    switch (product) {
-      case v1::RANGE:
-        added = AddFloat(plan, products, products.range_m, ImageKind::kRange, frame);
-        break;
-      case v1::DEPTH:
-        added = AddFloat(plan, products, products.depth_m, ImageKind::kDepth, frame);
-        break;
-      case v1::AMPLITUDE:
-        added = AddFloat(plan, products, products.amplitude, ImageKind::kAmplitude, frame);
-        break;
-      case v1::C0:
-        added = AddFloat(plan, products, products.c0, ImageKind::kC0, frame);
-        break;
-      case v1::FLAGS: {
-        v1::Image* image = frame->add_images();
-        if (absl::Status status = EncodeBytePlane(products.flags, products.geometry, plan.rect,
-                                                  plan.compression, image);
-            !status.ok()) {
-          return status;
-        }
-        Label(ImageKind::kFlags, 0, image);
-        break;
-      }
-      case v1::MOMENT_STATE: {
-        const SolvedImage& s = *products.solved;
-        std::vector<float> plane(pixels);
-        auto add_plane = [&](const std::vector<double>& source, int j,
-                             ImageKind kind) -> absl::StatusOr<bool> {
-          for (size_t p = 0; p < pixels; ++p) {
-            plane[p] = static_cast<float>(source[j * pixels + p]);
-          }
-          return AddFloat(plan, products, plane, kind, frame, j);
-        };
-        for (int j = 0; j <= s.order && added.ok(); ++j) {
-          added = add_plane(s.c_real, j, ImageKind::kCReal);
-          if (added.ok() && j > 0) added = add_plane(s.c_imag, j, ImageKind::kCImag);
-          if (added.ok()) added = add_plane(s.q_real, j, ImageKind::kQReal);
-          if (added.ok()) added = add_plane(s.q_imag, j, ImageKind::kQImag);
-        }
-        break;
-      }
-      case v1::SLICES:
-      case v1::CUMULATIVE: {
-        auto it = products.slices.find(plan.request.slice_phases);
-        if (it == products.slices.end()) return false;
-        const std::vector<float>& planes =
-            product == v1::SLICES ? it->second.density : it->second.cumulative;
-        const std::vector<double>& phases = plan.request.slice_phases;
-        if (planes.size() != phases.size() * pixels) return false;
-        for (size_t n = 0; n < phases.size() && added.ok() && *added; ++n) {
-          added = AddFloat(plan, products,
-                           std::span<const float>(planes).subspan(n * pixels, pixels),
-                           product == v1::SLICES ? ImageKind::kSlice : ImageKind::kCumulative,
-                           frame, static_cast<int>(n),
-                           PhaseToTimeOfFlightNs(phases[n], products.base_frequency_hz));
-        }
-        break;
-      }
-      case v1::DIRECT_INDIRECT:
-        added = AddFloat(plan, products, products.direct, ImageKind::kDirect, frame);
-        if (added.ok() && *added) {
-          added = AddFloat(plan, products, products.indirect, ImageKind::kIndirect, frame);
-        }
-        break;
-      case v1::CONFIDENCE:
-        added = AddFloat(plan, products, products.confidence, ImageKind::kConfidence, frame);
-        break;
-      case v1::MOMENT_DEPTH: {
-        auto it = products.moment_depth.find(plan.request.moment_depth);
-        if (it == products.moment_depth.end()) return false;
-        v1::Image* image = frame->add_images();
-        if (absl::Status status =
-                EncodeMomentDepth(*it->second, plan.request.moment_depth.from_returns, plan.rect,
-                                  plan.compression, image);
-            !status.ok()) {
-          return status;
-        }
-        Label(ImageKind::kMomentDepth, 0, image);
-        break;
-      }
-      default:
-        return absl::InternalError(absl::StrCat("unplanned product ", product));
-    }
-    if (!added.ok()) return added.status();
-    if (!*added) return false;
-  }
-  return true;
-}
-
 absl::StatusOr<std::optional<v1::Frame>> FrameForStream(const StreamPlan& plan,
                                                         const std::string& key,
                                                         const PublishedFrame& published,
@@ -335,7 +197,8 @@ absl::StatusOr<std::optional<v1::Frame>> FrameForStream(const StreamPlan& plan,
   std::shared_ptr<const v1::Frame> images = published.encoded.Find(key);
   if (images == nullptr) {
     auto encoded = std::make_shared<v1::Frame>();
-    absl::StatusOr<bool> complete = EncodeProducts(plan, *published.products, encoded.get());
+    absl::StatusOr<bool> complete =
+        wire::EncodeProducts(plan.images, *published.products, encoded.get());
     if (!complete.ok()) return complete.status();
     if (!*complete) return std::nullopt;
     images = published.encoded.Insert(key, std::move(encoded));
@@ -349,10 +212,10 @@ absl::StatusOr<std::optional<v1::Frame>> FrameForStream(const StreamPlan& plan,
   frame.set_missed(missed);
   frame.set_latency_s(absl::ToDoubleSeconds(published.publish - published.arrival));
   v1::Roi* roi = frame.mutable_roi();
-  roi->set_x(plan.rect.x);
-  roi->set_y(plan.rect.y);
-  roi->set_width(plan.rect.width);
-  roi->set_height(plan.rect.height);
+  roi->set_x(plan.images.rect.x);
+  roi->set_y(plan.images.rect.y);
+  roi->set_width(plan.images.rect.width);
+  roi->set_height(plan.images.rect.height);
   return frame;
 }
 

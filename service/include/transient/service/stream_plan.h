@@ -16,6 +16,7 @@
 #include "transient/service/subscription.h"
 #include "transient/v1/transient.pb.h"
 #include "transient/wire/image_codec.h"
+#include "transient/wire/product_encoder.h"
 
 namespace transient::service {
 
@@ -26,11 +27,8 @@ inline constexpr int64_t kMaxQueueBytes = int64_t{256} << 20;
 
 // A subscriber's request, checked and resolved against the sensor.
 struct StreamPlan {
-  ProductRequest request;
-  std::vector<v1::Product> products;  // in the order asked, without repeats
-  wire::PixelRect rect;
-  v1::Encoding encoding = v1::FLOAT32;
-  v1::Compression compression = v1::COMPRESSION_NONE;
+  ProductRequest request;        // what the pipeline computes for it
+  wire::ProductEncoding images;  // how its frames are encoded (products in the order asked)
   absl::Duration min_interval = absl::ZeroDuration();
   int queue_frames = kDefaultQueueFrames;
 };
@@ -44,16 +42,8 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& request, const Pi
 absl::Status CheckScheduleServes(std::span<const v1::Product> products,
                                  bool moment_depth_of_returns, const ScheduleOptions& schedule);
 
-// What EncodeProducts's result depends on besides the frame: streams whose plans have the same
-// key share one encoding of each frame (PublishedFrame::encoded).
-std::string EncodingKey(const StreamPlan& plan);
-
-// Fills `frame` with the planned products of `products`. false when one is missing.
-absl::StatusOr<bool> EncodeProducts(const StreamPlan& plan, const FrameProducts& products,
-                                    v1::Frame* frame);
-
 // The message of a published frame with images (not an announcement) for a stream of `plan`
-// (`key` = EncodingKey(plan)): its images encoded once per plan and shared through
+// (`key` = wire::EncodingKey(plan.images)): its images encoded once per plan and shared through
 // `published.encoded`, its sequence, times, ROI and `missed`. nullopt when the frame was
 // published before the plan's products were computed.
 absl::StatusOr<std::optional<v1::Frame>> FrameForStream(const StreamPlan& plan,
