@@ -12,8 +12,6 @@ namespace transient::service {
 namespace {
 
 constexpr absl::Duration kPollInterval = absl::Milliseconds(100);
-// Room left in a message for its headers below the server's max_payload.
-constexpr int64_t kHeaderRoom = 4096;
 // JetStream's error code for a stream name that exists (jsErrCode JSStreamNameExistErr).
 constexpr int kStreamNameExists = 10058;
 
@@ -134,47 +132,28 @@ absl::Status NatsPublisher::EnsureStream() {
 
 bool NatsPublisher::PublishFrame(const v1::Frame& frame) {
   const int64_t max_payload = connection_->max_payload();
-  if (max_payload <= kHeaderRoom) return false;
-  const std::string sequence = absl::StrCat(frame.sequence());
-  const std::string capture = absl::StrFormat("%.9f", frame.capture_time_s());
+  if (max_payload <= wire::kNatsHeaderRoom) return false;
   const std::string encoding = absl::StrCat(v1::Encoding_Name(plan_.images.encoding), "/",
                                             v1::Compression_Name(plan_.images.compression));
   jsPubOptions publish;
   jsPubOptions_Init(&publish);
   publish.MaxWait = options_.connect.timeout_ms;  // an unacknowledged message fails after this
-  for (v1::Product product : plan_.images.products) {
-    // One product's images per subject; a single product is the frame as it is.
-    v1::Frame one;
-    const v1::Frame* message = &frame;
-    if (plan_.images.products.size() > 1) {
-      one = frame;
-      one.clear_images();
-      for (const v1::Image& image : frame.images()) {
-        if (image.product() == product) *one.add_images() = image;
-      }
-      message = &one;
+  for (const wire::NatsMessage& message :
+       wire::FrameMessages(frame, options_.camera, plan_.images.products, encoding,
+                           pipeline_->schedule().options().base_frequency_hz,
+                           max_payload - wire::kNatsHeaderRoom)) {
+    absl::StatusOr<natsMsg*> msg = wire::ToNatsMsg(message);
+    natsStatus s = msg.ok() ? js_PublishMsgAsync(connection_->jetstream(), &*msg, &publish)
+                            : NATS_ERR;
+    if (msg.ok()) natsMsg_Destroy(*msg);  // null once the library took it
+    if (s != NATS_OK) {
+      absl::MutexLock lock(&mu_);
+      last_error_ = msg.ok() ? wire::FromNatsStatus(s, absl::StrCat("publishing ", message.subject))
+                                   .ToString()
+                             : msg.status().ToString();
+      return false;
     }
-    const std::string subject = wire::NatsSubject(options_.camera, product);
-    const std::string product_name = v1::Product_Name(product);
-    for (const wire::NatsPart& part : wire::SplitFrame(*message, max_payload - kHeaderRoom)) {
-      natsMsg* msg = nullptr;
-      natsStatus s = natsMsg_Create(&msg, subject.c_str(), nullptr, part.data.data(),
-                                    static_cast<int>(part.data.size()));
-      const std::string kn = absl::StrCat(part.index, "/", part.count);
-      if (s == NATS_OK) s = natsMsgHeader_Set(msg, wire::kNatsSequenceHeader, sequence.c_str());
-      if (s == NATS_OK) s = natsMsgHeader_Set(msg, wire::kNatsCaptureTimeHeader, capture.c_str());
-      if (s == NATS_OK) s = natsMsgHeader_Set(msg, wire::kNatsProductHeader, product_name.c_str());
-      if (s == NATS_OK) s = natsMsgHeader_Set(msg, wire::kNatsEncodingHeader, encoding.c_str());
-      if (s == NATS_OK) s = natsMsgHeader_Set(msg, wire::kNatsPartHeader, kn.c_str());
-      if (s == NATS_OK) s = js_PublishMsgAsync(connection_->jetstream(), &msg, &publish);
-      natsMsg_Destroy(msg);  // null once the library took it
-      if (s != NATS_OK) {
-        absl::MutexLock lock(&mu_);
-        last_error_ = wire::FromNatsStatus(s, absl::StrCat("publishing ", subject)).ToString();
-        return false;
-      }
-      messages_published_.fetch_add(1);
-    }
+    messages_published_.fetch_add(1);
   }
   return true;
 }

@@ -236,6 +236,57 @@ std::vector<NatsPart> SplitFrame(const v1::Frame& frame, int64_t max_part_bytes)
   return parts;
 }
 
+std::vector<NatsMessage> FrameMessages(const v1::Frame& frame, absl::string_view camera,
+                                       const std::vector<v1::Product>& products,
+                                       absl::string_view encoding, double base_frequency_hz,
+                                       int64_t max_part_bytes) {
+  std::vector<NatsMessage> messages;
+  const std::string sequence = absl::StrCat(frame.sequence());
+  char capture[64];
+  std::snprintf(capture, sizeof(capture), "%.9f", frame.capture_time_s());
+  char frequency[64];
+  std::snprintf(frequency, sizeof(frequency), "%.17g", base_frequency_hz);
+  for (v1::Product product : products) {
+    v1::Frame one;
+    const v1::Frame* whole = &frame;
+    if (products.size() > 1) {
+      one = frame;
+      one.clear_images();
+      for (const v1::Image& image : frame.images()) {
+        if (image.product() == product) *one.add_images() = image;
+      }
+      whole = &one;
+    }
+    const std::string subject = NatsSubject(camera, product);
+    for (NatsPart& part : SplitFrame(*whole, max_part_bytes)) {
+      NatsMessage& m = messages.emplace_back();
+      m.subject = subject;
+      m.headers = {{kNatsSequenceHeader, sequence},
+                   {kNatsCaptureTimeHeader, capture},
+                   {kNatsProductHeader, v1::Product_Name(product)},
+                   {kNatsEncodingHeader, std::string(encoding)},
+                   {kNatsBaseFrequencyHeader, frequency},
+                   {kNatsPartHeader, absl::StrCat(part.index, "/", part.count)}};
+      m.data = std::move(part.data);
+    }
+  }
+  return messages;
+}
+
+absl::StatusOr<natsMsg*> ToNatsMsg(const NatsMessage& message) {
+  natsMsg* msg = nullptr;
+  natsStatus s = natsMsg_Create(&msg, message.subject.c_str(), nullptr, message.data.data(),
+                                static_cast<int>(message.data.size()));
+  for (const auto& [key, value] : message.headers) {
+    if (s == NATS_OK) s = natsMsgHeader_Set(msg, key.c_str(), value.c_str());
+  }
+  if (s != NATS_OK) {
+    natsMsg_Destroy(msg);
+    return FromNatsStatus(s, absl::StrCat("a message for ", message.subject));
+  }
+  return msg;
+}
+
 FrameAssembler::Result FrameAssembler::Add(uint64_t sequence, absl::string_view part,
                                            absl::string_view data, v1::Frame* frame,
                                            std::string* error) {

@@ -31,6 +31,7 @@ inline constexpr char kNatsCaptureTimeHeader[] = "Transient-Capture-Time"; // se
 inline constexpr char kNatsProductHeader[] = "Transient-Product";          // MOMENT_STATE
 inline constexpr char kNatsEncodingHeader[] = "Transient-Encoding";        // FLOAT32/ZSTD
 inline constexpr char kNatsPartHeader[] = "Transient-Part";                // "k/n", k = 1..n
+inline constexpr char kNatsBaseFrequencyHeader[] = "Transient-Base-Frequency-Hz";  // f, %.17g
 
 // A camera's name in subjects and the stream: 1..64 of [A-Za-z0-9_-]. InvalidArgument naming
 // the character otherwise.
@@ -113,6 +114,27 @@ struct NatsPart {
 
 // `frame` serialized and cut into parts of at most `max_part_bytes` (>= 1).
 std::vector<NatsPart> SplitFrame(const v1::Frame& frame, int64_t max_part_bytes);
+
+// One message to publish: its subject, headers and bytes.
+struct NatsMessage {
+  std::string subject;
+  std::vector<std::pair<std::string, std::string>> headers;
+  std::string data;
+};
+
+// The messages of one frame of `camera`: for each of `products` (in order) a v1::Frame with
+// that product's images (the frame itself when it is the only one), on NatsSubject(camera,
+// product), cut into parts of at most max_part_bytes, each with the headers above. `encoding`
+// names the images' encoding and compression ("FLOAT32/NONE").
+std::vector<NatsMessage> FrameMessages(const v1::Frame& frame, absl::string_view camera,
+                                       const std::vector<v1::Product>& products,
+                                       absl::string_view encoding, double base_frequency_hz,
+                                       int64_t max_part_bytes);
+// `message` as a natsMsg the caller owns (natsMsg_Destroy), or why not.
+absl::StatusOr<natsMsg*> ToNatsMsg(const NatsMessage& message);
+
+// Room left in a message for its headers below the server's max_payload.
+inline constexpr int64_t kNatsHeaderRoom = 4096;
 
 // Joins the parts of frames arriving in order on one subject. A part out of turn (a frame's
 // first parts were not received: a consumer that started in its middle, or parts dropped while
