@@ -25,6 +25,7 @@ std::vector<std::unique_ptr<Subcommand>> AllSubcommands() {
   all.push_back(MakeClientCommand());
   all.push_back(MakeViewCommand());
   all.push_back(MakeWebCommand());
+  all.push_back(MakeWorkerCommand());
   all.push_back(MakeEvalCommand());
   return all;
 }

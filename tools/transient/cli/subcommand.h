@@ -35,6 +35,7 @@ std::unique_ptr<Subcommand> MakeDevicesCommand();
 std::unique_ptr<Subcommand> MakeClientCommand();
 std::unique_ptr<Subcommand> MakeViewCommand();
 std::unique_ptr<Subcommand> MakeWebCommand();
+std::unique_ptr<Subcommand> MakeWorkerCommand();
 std::unique_ptr<Subcommand> MakeEvalCommand();
 
 // Every subcommand, in the order `transient --help` lists them.
