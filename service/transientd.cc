@@ -217,6 +217,36 @@ int Run(int argc, char** argv) {
     return 2;
   }
   auto shared_access = std::make_shared<const Access>(*std::move(access));
+  // The NATS options are checked before anything starts (a calibration takes seconds).
+  if (!nats.connect.servers.empty()) {
+    if (absl::Status status = wire::CheckNatsCameraName(nats.camera); !status.ok()) {
+      std::cerr << "transientd: --nats-camera: " << status.message() << "\n";
+      return 2;
+    }
+    for (absl::string_view name : absl::StrSplit(nats_products, ',', absl::SkipWhitespace())) {
+      const wire::ProductSpec* spec = wire::FindProduct(name);
+      if (spec == nullptr) {
+        std::cerr << "transientd: --nats-products: unknown product '" << name << "'\n";
+        return 2;
+      }
+      nats.request.add_products(spec->product);
+    }
+    const std::optional<v1::Encoding> encoding = wire::FindEncoding(nats_encoding);
+    if (!encoding) {
+      std::cerr << "transientd: --nats-encoding '" << nats_encoding
+                << "': expected float32, float16 or mm\n";
+      return 2;
+    }
+    nats.request.set_encoding(*encoding);
+    nats.request.set_compression(nats_zstd ? v1::ZSTD : v1::COMPRESSION_NONE);
+    if (nats.replicas < 1 || nats.replicas > 5 || !(nats_max_age_s >= 0.0)) {
+      std::cerr << "transientd: --nats-replicas " << nats.replicas << " / --nats-max-age "
+                << nats_max_age_s << ": expected replicas 1..5 and an age >= 0 s\n";
+      return 2;
+    }
+    nats.max_age = absl::Seconds(nats_max_age_s);
+    nats.max_bytes = nats_max_bytes;
+  }
   absl::StatusOr<DataDir> data = DataDir::Open(data_dir, quota);
   if (!data.ok()) {
     std::cerr << "transientd: --data-dir: " << data.status().message() << "\n";
@@ -257,24 +287,6 @@ int Run(int argc, char** argv) {
   }
   std::unique_ptr<NatsPublisher> publisher;
   if (!nats.connect.servers.empty()) {
-    for (absl::string_view name : absl::StrSplit(nats_products, ',', absl::SkipWhitespace())) {
-      const wire::ProductSpec* spec = wire::FindProduct(name);
-      if (spec == nullptr) {
-        std::cerr << "transientd: --nats-products: unknown product '" << name << "'\n";
-        return 2;
-      }
-      nats.request.add_products(spec->product);
-    }
-    const std::optional<v1::Encoding> encoding = wire::FindEncoding(nats_encoding);
-    if (!encoding) {
-      std::cerr << "transientd: --nats-encoding '" << nats_encoding
-                << "': expected float32, float16 or mm\n";
-      return 2;
-    }
-    nats.request.set_encoding(*encoding);
-    nats.request.set_compression(nats_zstd ? v1::ZSTD : v1::COMPRESSION_NONE);
-    nats.max_age = absl::Seconds(nats_max_age_s);
-    nats.max_bytes = nats_max_bytes;
     absl::StatusOr<std::unique_ptr<NatsPublisher>> started =
         NatsPublisher::Start(pipeline->get(), nats);
     if (!started.ok()) {

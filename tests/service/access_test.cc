@@ -18,6 +18,7 @@
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "tests/service/daemon_fixture.h"
+#include "tests/support/certificates.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
 #include "tests/support/subprocess.h"
@@ -33,6 +34,7 @@ using ::testing::Not;
 using ::transient::service::testing::Daemon;
 using ::transient::service::testing::Request;
 using ::transient::testing::IsOk;
+using ::transient::testing::Certificates;
 using ::transient::testing::RunProcess;
 using ::transient::testing::ScratchDirectory;
 using ::transient::testing::StatusIs;
@@ -120,64 +122,6 @@ TEST(Access, TheRulesAtStartNameWhatIsMissing) {
   EXPECT_TRUE(token->token_required());
   EXPECT_EQ(token->Describe(), "plain text, bearer token (loopback)");
 }
-
-// Two CAs with the test's certificates, made by openssl(1): the daemon's (for 127.0.0.1 and
-// localhost) and a client's signed by the first CA, a client's signed by the second.
-class Certificates {
- public:
-  Certificates() {
-    for (const char* ca : {"ca", "other-ca"}) {
-      Run({"openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1",
-           "-nodes", "-days", "2", "-subj", absl::StrCat("/CN=transient test ", ca), "-keyout",
-           File(ca, "key"), "-out", File(ca, "pem")});
-    }
-    Sign("server", "ca", "subjectAltName=IP:127.0.0.1,DNS:localhost");
-    Sign("client", "ca", "");
-    Sign("stranger", "other-ca", "");
-  }
-
-  std::string File(const std::string& name, const std::string& kind) const {
-    return dir_.File(absl::StrCat(name, ".", kind));
-  }
-  bool ok() const { return ok_; }
-
- private:
-  void Run(const std::vector<std::string>& argv) {
-    const transient::testing::ProcessResult result = RunProcess(argv);
-    if (result.exit_code != 0) {
-      ok_ = false;
-      ADD_FAILURE() << argv[0] << " " << argv[1] << " exited " << result.exit_code << ": "
-                    << result.err;
-    }
-  }
-  void Sign(const std::string& name, const std::string& ca, const std::string& extension) {
-    Run({"openssl", "req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes",
-         "-subj", absl::StrCat("/CN=", name), "-keyout", File(name, "key"), "-out",
-         File(name, "csr")});
-    std::vector<std::string> argv = {"openssl",
-                                     "x509",
-                                     "-req",
-                                     "-in",
-                                     File(name, "csr"),
-                                     "-CA",
-                                     File(ca, "pem"),
-                                     "-CAkey",
-                                     File(ca, "key"),
-                                     "-CAcreateserial",
-                                     "-days",
-                                     "2",
-                                     "-out",
-                                     File(name, "pem")};
-    if (!extension.empty()) {
-      WriteFile(File(name, "ext"), extension + "\n", 0644);
-      argv.insert(argv.end(), {"-extfile", File(name, "ext")});
-    }
-    Run(argv);
-  }
-
-  ScratchDirectory dir_;
-  bool ok_ = true;
-};
 
 std::shared_ptr<const Access> MustLoad(const AccessOptions& options) {
   absl::StatusOr<Access> access = Access::Load(options, "127.0.0.1:0");

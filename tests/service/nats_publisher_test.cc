@@ -17,6 +17,7 @@
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "tests/service/daemon_fixture.h"
+#include "tests/support/certificates.h"
 #include "tests/support/nats_server.h"
 #include "tests/support/network.h"
 #include "tests/support/scratch_directory.h"
@@ -283,6 +284,46 @@ TEST(NatsPublisher, WrongCredentialsAreRefused) {
   EXPECT_TRUE(NextImages(**consumer, &frame));
 }
 
+TEST(NatsPublisher, MutualTlsAdmitsOnlyCertificatesOfTheServersCa) {
+  ::transient::testing::Certificates certificates;
+  ASSERT_TRUE(certificates.ok());
+  NatsServer server({"--tls", "--tlscert", certificates.File("server", "pem"), "--tlskey",
+                     certificates.File("server", "key"), "--tlsverify", "--tlscacert",
+                     certificates.File("ca", "pem")});
+  ASSERT_TRUE(server.running());
+  auto secure = [&](wire::NatsConnectOptions* c, const std::string& ca, const std::string& who) {
+    c->ca_file = certificates.File(ca, "pem");
+    if (!who.empty()) {
+      c->cert_file = certificates.File(who, "pem");
+      c->key_file = certificates.File(who, "key");
+    }
+  };
+  Daemon daemon(kCamera);
+  NatsPublishOptions publish = PublishTo(server);
+  secure(&publish.connect, "ca", "client");
+  absl::StatusOr<std::unique_ptr<NatsPublisher>> publisher =
+      NatsPublisher::Start(&daemon.pipeline(), publish);
+  ASSERT_THAT(publisher.status(), IsOk());
+  NatsStreamOptions good = ConsumeFrom(server);
+  secure(&good.connect, "ca", "client");
+  absl::StatusOr<std::unique_ptr<NatsFrameStream>> consumer = NatsFrameStream::Open(good);
+  ASSERT_THAT(consumer.status(), IsOk());
+  StreamFrame frame;
+  EXPECT_TRUE(NextImages(**consumer, &frame));
+
+  NatsStreamOptions stranger = ConsumeFrom(server);  // a certificate of another CA
+  secure(&stranger.connect, "ca", "stranger");
+  EXPECT_FALSE(NatsFrameStream::Open(stranger).ok());
+  NatsStreamOptions anonymous = ConsumeFrom(server);  // no client certificate
+  secure(&anonymous.connect, "ca", "");
+  EXPECT_FALSE(NatsFrameStream::Open(anonymous).ok());
+  NatsStreamOptions wrong_ca = ConsumeFrom(server);  // trusts another CA than the server's
+  secure(&wrong_ca.connect, "other-ca", "client");
+  EXPECT_FALSE(NatsFrameStream::Open(wrong_ca).ok());
+  NatsStreamOptions plain = ConsumeFrom(server);  // no TLS at all
+  EXPECT_FALSE(NatsFrameStream::Open(plain).ok());
+}
+
 TEST(NatsPublisher, BadOptionsAreRefusedNamingWhatIsWrong) {
   NatsServer server;
   ASSERT_TRUE(server.running());
@@ -317,6 +358,58 @@ TEST(NatsPublisher, BadOptionsAreRefusedNamingWhatIsWrong) {
   EXPECT_TRUE(WaitUntil([&] { return (*waiting)->Stats().messages_acknowledged > 0; },
                         absl::Seconds(30)))
       << (*waiting)->Stats().last_error;
+}
+
+TEST(Transientd, PublishesToNatsAndCountsItInGetStats) {
+  NatsServer server;
+  ASSERT_TRUE(server.running());
+  ScratchDirectory dir;
+  const std::vector<std::string> base = {TRANSIENTD_BINARY, "--source", kCamera, "--listen",
+                                         "127.0.0.1:0", "--data-dir", dir.File("data"),
+                                         "--publish", server.url()};
+  // Bad options: exit 2 naming them.
+  for (const std::vector<std::string>& bad :
+       {std::vector<std::string>{"--nats-products", "moment_state,nonsense"},
+        std::vector<std::string>{"--nats-encoding", "float64"},
+        std::vector<std::string>{"--nats-replicas", "7"},
+        std::vector<std::string>{"--nats-user-file", dir.File("missing")}}) {
+    std::vector<std::string> argv = base;
+    argv.insert(argv.end(), bad.begin(), bad.end());
+    const ::transient::testing::ProcessResult result = ::transient::testing::RunProcess(argv);
+    EXPECT_EQ(result.exit_code, 2) << bad[0] << ": " << result.err;
+    EXPECT_THAT(result.err, ::testing::HasSubstr(bad[0] == "--nats-replicas" ? "replicas" : bad[0]));
+  }
+  std::vector<std::string> argv = base;
+  argv.insert(argv.end(), {"--port-file", dir.File("port"), "--nats-camera", "bin", "--nats-encoding", "float16",
+                           "--nats-zstd", "--nats-products", "moment_state,range"});
+  ::transient::testing::ChildProcess daemon(argv, dir.File("log"));
+  ASSERT_TRUE(daemon.started());
+  const int port = ::transient::testing::WaitForPortFile(dir.File("port"));
+  ASSERT_GT(port, 0);
+  // A camera name that is not a subject token is refused before anything starts.
+  std::vector<std::string> dotted = base;
+  dotted.insert(dotted.end(), {"--nats-camera", "a.b"});
+  const ::transient::testing::ProcessResult refused = ::transient::testing::RunProcess(dotted);
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_THAT(refused.err, ::testing::HasSubstr("a.b"));
+  NatsStreamOptions range = ConsumeFrom(server, "bin");
+  range.product = v1::RANGE;
+  absl::StatusOr<std::unique_ptr<NatsFrameStream>> consumer = NatsFrameStream::Open(range);
+  ASSERT_THAT(consumer.status(), IsOk());
+  StreamFrame frame;
+  ASSERT_TRUE(NextImages(**consumer, &frame));
+  ASSERT_EQ(frame.images.size(), 1u);  // this subject carries RANGE only
+  EXPECT_EQ(frame.images[0].product, v1::RANGE);
+  v1::Stats stats;
+  grpc::ClientContext context;
+  ASSERT_TRUE(testing::Connect(port)->GetStats(&context, {}, &stats).ok());
+  ASSERT_TRUE(stats.has_nats());
+  EXPECT_EQ(stats.nats().camera(), "bin");
+  EXPECT_TRUE(stats.nats().connected());
+  EXPECT_GT(stats.nats().frames_published(), 0u);
+  EXPECT_GE(stats.nats().messages_published(), 2 * stats.nats().frames_published() - 2);
+  ASSERT_TRUE(daemon.Signal(SIGTERM));
+  EXPECT_EQ(daemon.Wait(), 0);
 }
 
 // The stream's state as the cluster reports it: its leader's name and its message count.
