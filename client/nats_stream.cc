@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
@@ -21,6 +22,24 @@ absl::string_view Header(natsMsg* msg, const char* key) {
 }
 
 }  // namespace
+
+absl::Status ParseNatsStart(const std::string& option, const std::string& text,
+                            NatsStreamOptions* options) {
+  uint64_t sequence = 0;
+  if (text == "new") {
+    options->start = NatsStreamOptions::Start::kNew;
+  } else if (text == "all") {
+    options->start = NatsStreamOptions::Start::kAll;
+  } else if (absl::StartsWith(text, "seq:") && absl::SimpleAtoi(text.substr(4), &sequence) &&
+             sequence >= 1) {
+    options->start = NatsStreamOptions::Start::kSequence;
+    options->start_sequence = sequence;
+  } else {
+    return absl::InvalidArgumentError(absl::StrCat(
+        option, " '", text, "': expected new, all or seq:N (a stream sequence >= 1)"));
+  }
+  return absl::OkStatus();
+}
 
 absl::StatusOr<std::unique_ptr<NatsFrameStream>> NatsFrameStream::Open(
     const NatsStreamOptions& options) {
@@ -104,6 +123,10 @@ bool NatsFrameStream::Next(StreamFrame* frame) {
     uint64_t sequence = 0;
     (void)absl::SimpleAtoi(Header(msg, wire::kNatsSequenceHeader), &sequence);
     const absl::string_view part = Header(msg, wire::kNatsPartHeader);
+    double frequency = 0.0;
+    if (absl::SimpleAtod(Header(msg, wire::kNatsBaseFrequencyHeader), &frequency)) {
+      base_frequency_hz_ = frequency;
+    }
     const absl::string_view data(natsMsg_GetData(msg),
                                  static_cast<size_t>(natsMsg_GetDataLength(msg)));
     jsMsgMetaData* meta = nullptr;

@@ -3,6 +3,7 @@
 #include "transient/client/nats_worker.h"
 
 #include <atomic>
+#include <filesystem>
 #include <map>
 #include <set>
 #include <thread>
@@ -11,6 +12,8 @@
 #include "gtest/gtest.h"
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/nats_server.h"
+#include "tests/support/scratch_directory.h"
+#include "tests/support/subprocess.h"
 #include "tests/support/status_matchers.h"
 #include "tests/support/wait.h"
 #include "transient/client/nats_stream.h"
@@ -197,6 +200,61 @@ TEST(NatsWorker, FramesInPartsAndBadOptionsAreRefused) {
       },
       absl::Seconds(30)));
   EXPECT_EQ((*worker)->counts().frames_done, 0);
+}
+
+// The tool's NATS commands against a daemon publishing float16 frames (one message each).
+TEST(TransientTool, RecordsConsumesAndWorksOnACameraOverNats) {
+  NatsServer server;
+  ASSERT_TRUE(server.running());
+  Daemon daemon(kCamera);
+  NatsPublishOptions publish;
+  publish.connect.servers = server.url();
+  publish.camera = "lab";
+  publish.request.set_encoding(v1::FLOAT16);
+  absl::StatusOr<std::unique_ptr<NatsPublisher>> publisher =
+      NatsPublisher::Start(&daemon.pipeline(), publish);
+  ASSERT_THAT(publisher.status(), IsOk());
+  ::transient::testing::ScratchDirectory dir;
+  auto run = [&](std::vector<std::string> argv) {
+    argv.insert(argv.begin(), TRANSIENT_BINARY);
+    return ::transient::testing::RunProcess(argv);
+  };
+  const std::vector<std::string> nats = {"--nats", server.url(), "--nats-camera", "lab"};
+  auto with = [&](std::vector<std::string> argv, const std::vector<std::string>& more) {
+    argv.insert(argv.end(), nats.begin(), nats.end());
+    argv.insert(argv.end(), more.begin(), more.end());
+    return argv;
+  };
+  // Moments into a file `transient reconstruct` reads.
+  ::transient::testing::ProcessResult record =
+      run(with({"record"}, {"--frames", "3", "--out", dir.File("moments.h5")}));
+  ASSERT_EQ(record.exit_code, 0) << record.err;
+  ::transient::testing::ProcessResult info = run({"info", dir.File("moments.h5")});
+  EXPECT_THAT(info.out, ::testing::HasSubstr("3 frames of 48x36 px, m = 3"));
+  // A worker's slices, received by the client.
+  ::transient::testing::ProcessResult worker =
+      run(with({"worker"}, {"--frames", "3", "--bins", "8"}));
+  ASSERT_EQ(worker.exit_code, 0) << worker.err;
+  EXPECT_THAT(worker.err, ::testing::HasSubstr("3 frames done"));
+  ::transient::testing::ProcessResult slices = run(with(
+      {"client"}, {"--products", "slices", "--nats-start", "all", "--frames", "3", "--out",
+                   dir.File("slices")}));
+  ASSERT_EQ(slices.exit_code, 0) << slices.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.File("slices/slices/slice_007.png")));
+  // Bad options: exit 2 naming them.
+  ::transient::testing::ProcessResult both =
+      run(with({"record", "--source", kCamera}, {"--frames", "1", "--out", dir.File("x.h5")}));
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_THAT(both.err, ::testing::HasSubstr("--source or --nats"));
+  ::transient::testing::ProcessResult start =
+      run(with({"client"}, {"--products", "moment_state", "--nats-start", "yesterday", "--out",
+                            dir.File("y")}));
+  EXPECT_EQ(start.exit_code, 2);
+  EXPECT_THAT(start.err, ::testing::HasSubstr("--nats-start 'yesterday'"));
+  ::transient::testing::ProcessResult two =
+      run(with({"client"}, {"--products", "range,slices", "--out", dir.File("z")}));
+  EXPECT_EQ(two.exit_code, 2);
+  EXPECT_THAT(two.err, ::testing::HasSubstr("exactly one"));
 }
 
 TEST(SolvedFromMomentState, RefusesAnIncompleteState) {

@@ -18,8 +18,20 @@ CLI::App* AddRecordCommand(CLI::App& app, ::transient::tools::RecordArgs& args) 
   CLI::App* command = app.add_subcommand(
       "record", "Record raw frames from a source into a capture file (transient-capture 1); "
                 "flushed at least once a second, readable after a crash up to the last flush.");
-  command->add_option("--source", args.source_uri, "source URI (see transient sources)")
-      ->required();
+  command->add_option("--source", args.source_uri, "source URI (see transient sources)");
+  command->add_option("--nats", args.nats.servers,
+                      "instead of --source: NATS servers (nats://HOST:PORT[,...]) whose camera "
+                      "stream's MOMENT_STATE frames go into a moment file (transient-moments 1) "
+                      "for `transient reconstruct`");
+  command->add_option("--nats-camera", args.nats_camera, "the camera's name on NATS")
+      ->capture_default_str();
+  command->add_option("--nats-start", args.nats_start, "new, all or seq:N")->capture_default_str();
+  command->add_option("--nats-user-file", args.nats.user_file,
+                      "a file holding user:password (not readable by others)");
+  command->add_option("--nats-creds", args.nats.creds_file, "a NATS .creds file");
+  command->add_option("--nats-ca", args.nats.ca_file, "PEM CA of the NATS server (TLS)");
+  command->add_option("--nats-cert", args.nats.cert_file, "PEM client certificate");
+  command->add_option("--nats-key", args.nats.key_file, "the PEM key of --nats-cert");
   command->add_option("--out", args.output_path, "capture file to write (must not exist)")
       ->required();
   command->add_option("--frames", args.frames, "transient frames (capture cycles) to record");

@@ -56,21 +56,6 @@ std::vector<v1::Product> RequestedProducts(const std::vector<std::string>& names
   return products;
 }
 
-// --nats-start: "new", "all" or "seq:N" (N >= 1).
-absl::StatusOr<std::pair<client::NatsStreamOptions::Start, uint64_t>> ParseNatsStart(
-    const std::string& text) {
-  using Start = client::NatsStreamOptions::Start;
-  if (text == "new") return std::make_pair(Start::kNew, uint64_t{0});
-  if (text == "all") return std::make_pair(Start::kAll, uint64_t{0});
-  uint64_t sequence = 0;
-  if (absl::StartsWith(text, "seq:") && absl::SimpleAtoi(text.substr(4), &sequence) &&
-      sequence >= 1) {
-    return std::make_pair(Start::kSequence, sequence);
-  }
-  return absl::InvalidArgumentError(absl::StrCat(
-      "--nats-start '", text, "': expected new, all or seq:N (a stream sequence >= 1)"));
-}
-
 }  // namespace
 
 absl::StatusOr<ClientRoi> ParseRoi(const std::string& text) {
@@ -168,7 +153,11 @@ absl::Status ClientArgs::Validate() const {
       return absl::InvalidArgumentError(
           "--products: with --nats, exactly one (each product has its own subject)");
     }
-    if (!ParseNatsStart(nats_start).ok()) return ParseNatsStart(nats_start).status();
+    client::NatsStreamOptions start;
+    if (absl::Status status = client::ParseNatsStart("--nats-start", nats_start, &start);
+        !status.ok()) {
+      return status;
+    }
   }
   if (virtual_plane_m && (!std::isfinite(*virtual_plane_m) || !(*virtual_plane_m > 0.0))) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -272,9 +261,7 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
     options.connect = args.nats;
     options.camera = args.nats_camera;
     options.product = products.front();
-    const auto start = *ParseNatsStart(args.nats_start);  // checked by Validate
-    options.start = start.first;
-    options.start_sequence = std::max<uint64_t>(1, start.second);
+    (void)client::ParseNatsStart("--nats-start", args.nats_start, &options);  // Validate checked
     options.cancel = hooks.cancel;
     options.deadline = deadline;
     absl::StatusOr<std::unique_ptr<client::NatsFrameStream>> opened_nats =

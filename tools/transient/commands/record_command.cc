@@ -37,7 +37,10 @@ bool FitsUint16(const RawFrame& frame) {
 }  // namespace
 
 absl::Status RecordArgs::Validate() const {
-  if (source_uri.empty()) return absl::InvalidArgumentError("--source: expected a source URI");
+  if (source_uri.empty() == nats.servers.empty()) {
+    return absl::InvalidArgumentError(
+        "--source or --nats: expected one of them (a source URI, or NATS servers)");
+  }
   if (output_path.empty()) return absl::InvalidArgumentError("--out: expected a file name");
   if (absl::Status status = ValidateRunLength(frames, seconds); !status.ok()) return status;
   if (deflate_level < 0 || deflate_level > 9) {
@@ -49,6 +52,7 @@ absl::Status RecordArgs::Validate() const {
 
 absl::StatusOr<RecordSummary> RunRecord(const RecordArgs& args, const CommandHooks& hooks) {
   if (absl::Status status = args.Validate(); !status.ok()) return status;
+  if (!args.nats.servers.empty()) return RunRecordNats(args, hooks);
   if (std::filesystem::exists(args.output_path)) {
     return absl::AlreadyExistsError(absl::StrCat(
         args.output_path, ": exists; a recording never replaces a file (remove it first)"));
@@ -138,6 +142,11 @@ absl::StatusOr<RecordSummary> RunRecord(const RecordArgs& args, const CommandHoo
 }
 
 std::string FormatRecordSummary(const RecordSummary& s) {
+  if (s.moments) {
+    return absl::StrFormat("%s: %d frames of moments from %s in %.1f s%s\n  %s", s.output_path,
+                           s.cycles, s.source_uri, s.seconds,
+                           s.interrupted ? " (interrupted)" : "", s.schedule);
+  }
   return absl::StrFormat(
       "%s: %d raw frames = %d transient frames from %s in %.1f s%s%s%s\n  schedule: %s",
       s.output_path, s.raw_frames, s.cycles, s.source_uri, s.seconds,

@@ -38,6 +38,11 @@ struct NatsStreamOptions {
   absl::Time deadline = absl::InfiniteFuture();
 };
 
+// Where a consumer starts, as the command line says it: "new", "all" or "seq:N" (N >= 1) into
+// start and start_sequence of *options. InvalidArgument naming `option` otherwise.
+absl::Status ParseNatsStart(const std::string& option, const std::string& text,
+                            NatsStreamOptions* options);
+
 class NatsFrameStream {
  public:
   // Connects and subscribes. InvalidArgument for a bad camera name or option, Unavailable when
@@ -62,6 +67,9 @@ class NatsFrameStream {
   const absl::Status& last_corruption() const { return last_corruption_; }
   // The JetStream stream sequence of the last message of the last frame returned.
   uint64_t stream_sequence() const { return stream_sequence_; }
+  // The base frequency of the last frame's camera (its Transient-Base-Frequency-Hz header),
+  // 0 before the first or without the header.
+  double base_frequency_hz() const { return base_frequency_hz_; }
   // Frames dropped because some of their parts did not arrive.
   int64_t incomplete() const { return assembler_.abandoned(); }
 
@@ -78,6 +86,7 @@ class NatsFrameStream {
   StreamCounts counts_;
   absl::Status last_corruption_;
   uint64_t stream_sequence_ = 0;
+  double base_frequency_hz_ = 0.0;
 };
 
 }  // namespace transient::client
