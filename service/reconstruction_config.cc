@@ -42,16 +42,28 @@ std::string DescribeConfig(const ReconstructionConfig& config) {
       config.threshold, config.smoothing_sigma_px, config.takes, config.video ? "on" : "off");
 }
 
-absl::Status ReadConfigFile(const std::string& path, ReconstructionConfig* config) {
+bool IsDaemonKey(absl::string_view key) {
+  static constexpr absl::string_view kKeys[] = {
+      "publish",        "nats_camera", "nats_products",  "nats_encoding", "nats_zstd",
+      "nats_max_age",   "nats_max_bytes", "nats_replicas", "nats_user_file", "nats_creds",
+      "nats_ca",        "nats_cert",   "nats_key"};
+  for (absl::string_view k : kKeys) {
+    if (key == k) return true;
+  }
+  return false;
+}
+
+absl::Status ReadConfigFile(const std::string& path, ReconstructionConfig* config,
+                            DaemonKeys* daemon) {
   std::ifstream in(path);
   if (!in) return absl::NotFoundError(absl::StrCat(path, ": cannot be read"));
   std::ostringstream content;
   content << in.rdbuf();
-  return ParseConfig(content.str(), path, config);
+  return ParseConfig(content.str(), path, config, daemon);
 }
 
 absl::Status ParseConfig(absl::string_view content, absl::string_view path,
-                         ReconstructionConfig* config) {
+                         ReconstructionConfig* config, DaemonKeys* daemon) {
   int number = 0;
   for (absl::string_view line : absl::StrSplit(content, '\n')) {
     ++number;
@@ -74,6 +86,10 @@ absl::Status ParseConfig(absl::string_view content, absl::string_view path,
       return absl::OkStatus();
     };
     absl::Status status;
+    if (daemon != nullptr && IsDaemonKey(key)) {
+      daemon->emplace_back(key, value);
+      continue;
+    }
     if (key == "range_method") {
       if (value == "mese") {
         config->range_method = RangeMethod::kMese;
@@ -102,7 +118,8 @@ absl::Status ParseConfig(absl::string_view content, absl::string_view path,
     } else {
       status = absl::InvalidArgumentError(absl::StrCat(
           where(), "unknown key '", key,
-          "'; expected range_method, bias_epsilon, threshold, smoothing_sigma_px, takes, video"));
+          "'; expected range_method, bias_epsilon, threshold, smoothing_sigma_px, takes, video",
+          daemon != nullptr ? ", publish or nats_* (docs/nats.md)" : ""));
     }
     if (!status.ok()) return status;
   }

@@ -19,6 +19,8 @@
 
 #include "CLI/CLI.hpp"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
 #include "transient/wire/product_registry.h"
 #include "transient/wire/address.h"
@@ -129,7 +131,8 @@ int Run(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--config", config_path,
                  "reconstruction settings, `key = value` lines: range_method (mese|pisarenko), "
-                 "bias_epsilon, threshold, smoothing_sigma_px, takes, video (true|false)");
+                 "bias_epsilon, threshold, smoothing_sigma_px, takes, video (true|false); and "
+                 "publish, nats_camera, ... as the --publish and --nats-* options (which win)");
   app.add_option("--port-file", port_file, "write the port actually bound into this file");
   app.add_option("--data-dir", data_dir,
                  "directory of the recordings and calibration files clients ask for: they name "
@@ -217,6 +220,40 @@ int Run(int argc, char** argv) {
     return 2;
   }
   auto shared_access = std::make_shared<const Access>(*std::move(access));
+  // The config file: reconstruction settings, and the daemon's NATS keys, which the command
+  // line overrides.
+  ReconstructionConfig file_config;
+  if (!config_path.empty()) {
+    DaemonKeys keys;
+    if (absl::Status status = ReadConfigFile(config_path, &file_config, &keys); !status.ok()) {
+      std::cerr << "transientd: " << status.message() << "\n";
+      return 2;
+    }
+    for (const auto& [key, value] : keys) {
+      const std::string flag = absl::StrCat("--", absl::StrReplaceAll(key, {{"_", "-"}}));
+      if (app.count(flag) > 0) continue;  // the command line says otherwise
+      bool ok = true;
+      if (key == "publish") nats.connect.servers = value;
+      else if (key == "nats_camera") nats.camera = value;
+      else if (key == "nats_products") nats_products = value;
+      else if (key == "nats_encoding") nats_encoding = value;
+      else if (key == "nats_zstd") ok = absl::SimpleAtob(value, &nats_zstd);
+      else if (key == "nats_max_age") ok = absl::SimpleAtod(value, &nats_max_age_s);
+      else if (key == "nats_max_bytes") ok = absl::SimpleAtoi(value, &nats_max_bytes);
+      else if (key == "nats_replicas") ok = absl::SimpleAtoi(value, &nats.replicas);
+      else if (key == "nats_user_file") nats.connect.user_file = value;
+      else if (key == "nats_creds") nats.connect.creds_file = value;
+      else if (key == "nats_ca") nats.connect.ca_file = value;
+      else if (key == "nats_cert") nats.connect.cert_file = value;
+      else if (key == "nats_key") nats.connect.key_file = value;
+      if (!ok) {
+        std::cerr << "transientd: " << config_path << ": " << key << " = " << value
+                  << ": expected " << (key == "nats_zstd" ? "true or false" : "a number")
+                  << "\n";
+        return 2;
+      }
+    }
+  }
   // The NATS options are checked before anything starts (a calibration takes seconds).
   if (!nats.connect.servers.empty()) {
     if (absl::Status status = wire::CheckNatsCameraName(nats.camera); !status.ok()) {
@@ -259,12 +296,7 @@ int Run(int argc, char** argv) {
   const std::string data_dir_root = options.data_dir->root();
   options.log = Log;
   options.stats_log_interval = absl::Seconds(stats_interval_s);
-  if (!config_path.empty()) {
-    if (absl::Status status = ReadConfigFile(config_path, &options.config); !status.ok()) {
-      std::cerr << "transientd: " << status.message() << "\n";
-      return 2;
-    }
-  }
+  options.config = file_config;
   if (absl::Status status =
           ChooseCalibration(source_uri, calibration_path, uncalibrated, &options);
       !status.ok()) {

@@ -26,6 +26,7 @@
 #include "tests/support/wait.h"
 #include "transient/client/decoded_image.h"
 #include "transient/client/nats_stream.h"
+#include "transient/service/reconstruction_config.h"
 
 namespace transient::service {
 namespace {
@@ -408,6 +409,40 @@ TEST(Transientd, PublishesToNatsAndCountsItInGetStats) {
   EXPECT_TRUE(stats.nats().connected());
   EXPECT_GT(stats.nats().frames_published(), 0u);
   EXPECT_GE(stats.nats().messages_published(), 2 * stats.nats().frames_published() - 2);
+  ASSERT_TRUE(daemon.Signal(SIGTERM));
+  EXPECT_EQ(daemon.Wait(), 0);
+}
+
+TEST(Transientd, TakesItsNatsSettingsFromTheConfigFile) {
+  NatsServer server;
+  ASSERT_TRUE(server.running());
+  ScratchDirectory dir;
+  std::ofstream(dir.File("good.conf")) << "range_method = mese\npublish = " << server.url()
+                                       << "\nnats_camera = conf\nnats_encoding = float16\n";
+  std::ofstream(dir.File("bad.conf")) << "publish = " << server.url()
+                                      << "\nnats_replicas = many\n";
+  const std::vector<std::string> base = {TRANSIENTD_BINARY, "--source", kCamera, "--listen",
+                                         "127.0.0.1:0", "--data-dir", dir.File("data")};
+  std::vector<std::string> bad = base;
+  bad.insert(bad.end(), {"--config", dir.File("bad.conf")});
+  const ::transient::testing::ProcessResult refused = ::transient::testing::RunProcess(bad);
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_THAT(refused.err, ::testing::HasSubstr("nats_replicas = many"));
+  // Without a daemon's keys the parser still refuses them as unknown.
+  ReconstructionConfig config;
+  EXPECT_EQ(ParseConfig("publish = nats://h:1\n", "x.conf", &config).code(),
+            absl::StatusCode::kInvalidArgument);
+
+  std::vector<std::string> argv = base;
+  argv.insert(argv.end(), {"--config", dir.File("good.conf"), "--port-file", dir.File("port")});
+  ::transient::testing::ChildProcess daemon(argv, dir.File("log"));
+  ASSERT_TRUE(daemon.started());
+  ASSERT_GT(::transient::testing::WaitForPortFile(dir.File("port")), 0);
+  absl::StatusOr<std::unique_ptr<NatsFrameStream>> consumer =
+      NatsFrameStream::Open(ConsumeFrom(server, "conf"));
+  ASSERT_THAT(consumer.status(), IsOk());
+  StreamFrame frame;
+  ASSERT_TRUE(NextImages(**consumer, &frame));
   ASSERT_TRUE(daemon.Signal(SIGTERM));
   EXPECT_EQ(daemon.Wait(), 0);
 }

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/string_view.h"
@@ -32,9 +34,19 @@ std::string DescribeConfig(const ReconstructionConfig& config);
 // not in the file keep their values. NotFound when the file cannot be read; InvalidArgument
 // "<path>:<line>: ..." naming the key, the value and the rule, or "<path>: ..." when the
 // result fails Validate().
-absl::Status ReadConfigFile(const std::string& path, ReconstructionConfig* config);
+// `daemon`: when given, the daemon's own keys are taken too and stored there as they are
+// written (`publish` and the `nats_*` keys of `transientd --publish`, docs/nats.md); without
+// it they are unknown keys.
+using DaemonKeys = std::vector<std::pair<std::string, std::string>>;
+absl::Status ReadConfigFile(const std::string& path, ReconstructionConfig* config,
+                            DaemonKeys* daemon = nullptr);
 // The same from the file's `content`, named `path` in messages.
 absl::Status ParseConfig(absl::string_view content, absl::string_view path,
-                         ReconstructionConfig* config);
+                         ReconstructionConfig* config, DaemonKeys* daemon = nullptr);
+
+// The daemon's keys of a config file: publish, nats_camera, nats_products, nats_encoding,
+// nats_zstd, nats_max_age, nats_max_bytes, nats_replicas, nats_user_file, nats_creds, nats_ca,
+// nats_cert, nats_key.
+bool IsDaemonKey(absl::string_view key);
 
 }  // namespace transient::service
