@@ -172,6 +172,7 @@ absl::StatusOr<std::unique_ptr<NatsConnection>> NatsConnection::Open(
   if (absl::Status status = Configure(o, *servers, c->options_); !status.ok()) return status;
   natsOptions_SetDisconnectedCB(c->options_, &NatsConnection::OnDisconnected, c.get());
   natsOptions_SetReconnectedCB(c->options_, &NatsConnection::OnReconnected, c.get());
+  natsOptions_SetClosedCB(c->options_, &NatsConnection::OnClosed, c.get());
   natsStatus s = natsConnection_Connect(&c->nc_, c->options_);
   if (s == NATS_NO_SERVER && background) {
     // No server answers yet (refused credentials or TLS are errors now): keep trying.
@@ -198,8 +199,10 @@ NatsConnection::~NatsConnection() {
   if (js_ != nullptr) jsCtx_Destroy(js_);
   if (nc_ != nullptr) {
     natsConnection_Close(nc_);
-    natsConnection_Destroy(nc_);
+    // The callbacks still queued (disconnected, then closed) point at this object.
+    closed_.WaitForNotificationWithTimeout(absl::Seconds(5));
   }
+  if (nc_ != nullptr) natsConnection_Destroy(nc_);
   if (options_ != nullptr) natsOptions_Destroy(options_);
 }
 
@@ -216,6 +219,10 @@ void NatsConnection::OnDisconnected(natsConnection*, void* closure) {
 }
 
 void NatsConnection::OnConnected(natsConnection*, void*) {}
+
+void NatsConnection::OnClosed(natsConnection*, void* closure) {
+  static_cast<NatsConnection*>(closure)->closed_.Notify();
+}
 
 void NatsConnection::OnReconnected(natsConnection*, void* closure) {
   static_cast<NatsConnection*>(closure)->reconnects_.fetch_add(1);

@@ -21,6 +21,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "absl/synchronization/notification.h"
 #include "transient/v1/transient.pb.h"
 
 namespace transient::wire {
@@ -94,6 +95,7 @@ class NatsConnection {
  private:
   NatsConnection() = default;
   static void OnConnected(natsConnection* nc, void* closure);
+  static void OnClosed(natsConnection* nc, void* closure);
   static void OnDisconnected(natsConnection* nc, void* closure);
   static void OnReconnected(natsConnection* nc, void* closure);
 
@@ -103,6 +105,9 @@ class NatsConnection {
   jsCtx* js_ = nullptr;
   std::atomic<int64_t> disconnects_{0};
   std::atomic<int64_t> reconnects_{0};
+  // cnats runs the callbacks above on a thread of its own, after natsConnection_Close returns;
+  // the closed callback comes last, so the destructor waits for it before this object goes.
+  absl::Notification closed_;  // safe to destroy once waited for
 };
 
 // One message of a frame: its subject's product, part k of n, and the bytes.
