@@ -3,7 +3,7 @@
 # a real nats-server on loopback (JetStream on, file store, the default 1 MB max_payload),
 # transientd --publish MOMENT_STATE, and two `transient client`s at once for the same seconds:
 # one over gRPC, one from NATS (--nats). Prints per case and transport: frames/s received, MB/s
-# of MOMENT_STATE (float32 planes), latency p50 / p99 (end of the frame's capture -> the
+# of MOMENT_STATE (as float32 planes), latency p50 / p99 (end of the frame's capture -> the
 # client), frames missed.
 #   usage: tools/scripts/bench_nats.sh BUILD_DIR [SECONDS]
 set -euo pipefail
@@ -38,11 +38,12 @@ print(f"{name:26s} {transport:5s} {s['rate_hz']:6.1f} frames/s {s['rate_hz'] * m
 PY
 }
 
-run_case() {  # name camera source
+run_case() {  # name camera source [more transientd options]
   local name=$1 camera=$2 source=$3
+  shift 3
   rm -f "$work/port"
   "$build/service/transientd" --source "$source" --listen 127.0.0.1:0 --port-file "$work/port" \
-    --data-dir "$work/data" --stats-interval 1000 --publish "$url" --nats-camera "$camera" \
+    --data-dir "$work/data" --stats-interval 1000 --publish "$url" --nats-camera "$camera" "$@" \
     2> "$work/$camera.log" &
   local daemon=$!
   for _ in $(seq 600); do [[ -s "$work/port" ]] && break; sleep 0.1; done
@@ -63,3 +64,7 @@ run_case "163x120 m=3 camera rate" small "sim:mirrors"
 "$transient" sim mirrors --out "$work/vga.h5" --frames 30 --width 640 --height 480 --m 3 \
   --deflate 0 > /dev/null
 run_case "640x480 m=3 fast replay" vga "replay:$work/vga.h5?loop=1&pace=fast"
+# The same with the NATS side in half floats (the gRPC client still asks for float32; MB/s
+# counts float32 planes for both).
+run_case "640x480 NATS float16" vga16 "replay:$work/vga.h5?loop=1&pace=fast" \
+  --nats-encoding float16
