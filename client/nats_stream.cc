@@ -35,8 +35,8 @@ absl::Status ParseNatsStart(const std::string& option, const std::string& text,
     options->start = NatsStreamOptions::Start::kSequence;
     options->start_sequence = sequence;
   } else {
-    return absl::InvalidArgumentError(absl::StrCat(
-        option, " '", text, "': expected new, all or seq:N (a stream sequence >= 1)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(option, " '", text, "': expected new, all or seq:N (a stream sequence >= 1)"));
   }
   return absl::OkStatus();
 }
@@ -63,8 +63,12 @@ absl::StatusOr<std::unique_ptr<NatsFrameStream>> NatsFrameStream::Open(
   sub.Stream = stream.c_str();
   sub.Ordered = true;  // in order, no gaps: recreated by the library from the last sequence seen
   switch (options.start) {
-    case NatsStreamOptions::Start::kNew: sub.Config.DeliverPolicy = js_DeliverNew; break;
-    case NatsStreamOptions::Start::kAll: sub.Config.DeliverPolicy = js_DeliverAll; break;
+    case NatsStreamOptions::Start::kNew:
+      sub.Config.DeliverPolicy = js_DeliverNew;
+      break;
+    case NatsStreamOptions::Start::kAll:
+      sub.Config.DeliverPolicy = js_DeliverAll;
+      break;
     case NatsStreamOptions::Start::kSequence:
       sub.Config.DeliverPolicy = js_DeliverByStartSequence;
       sub.Config.OptStartSeq = options.start_sequence;
@@ -78,9 +82,9 @@ absl::StatusOr<std::unique_ptr<NatsFrameStream>> NatsFrameStream::Open(
   natsStatus status = js_SubscribeSync(&s->subscription_, s->connection_->jetstream(),
                                        subject.c_str(), nullptr, &sub, &code);
   if (status != NATS_OK) {
-    absl::Status why = wire::FromNatsStatus(
-        status, absl::StrCat("subscribing to ", subject, " in stream ", stream, " at ",
-                             options.connect.servers));
+    absl::Status why =
+        wire::FromNatsStatus(status, absl::StrCat("subscribing to ", subject, " in stream ", stream,
+                                                  " at ", options.connect.servers));
     if (status == NATS_NOT_FOUND || static_cast<int>(code) == 10059 /* stream not found */) {
       return absl::NotFoundError(absl::StrCat(why.message(), ": no stream ", stream,
                                               "; has a transientd --publish --nats-camera ",
@@ -165,9 +169,8 @@ bool NatsFrameStream::Next(StreamFrame* frame) {
 
 absl::Status NatsFrameStream::Finish() {
   if (cancelled_.load()) {
-    return absl::CancelledError(
-        absl::StrCat("NATS stream of ", options_.camera, " cancelled after ", counts_.frames,
-                     " frames"));
+    return absl::CancelledError(absl::StrCat("NATS stream of ", options_.camera,
+                                             " cancelled after ", counts_.frames, " frames"));
   }
   return absl::OkStatus();
 }

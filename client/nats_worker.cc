@@ -36,10 +36,9 @@ absl::StatusOr<SolvedImage> SolvedFromMomentState(const std::vector<DecodedImage
     if (image.product != v1::MOMENT_STATE) continue;
     if (order < 0) s.geometry = image.geometry;
     if (image.geometry.width != s.geometry.width || image.geometry.height != s.geometry.height) {
-      return absl::DataLossError(absl::StrCat("MOMENT_STATE image ", image.name, " is ",
-                                              image.geometry.width, "x", image.geometry.height,
-                                              ", the others ", s.geometry.width, "x",
-                                              s.geometry.height));
+      return absl::DataLossError(absl::StrCat(
+          "MOMENT_STATE image ", image.name, " is ", image.geometry.width, "x",
+          image.geometry.height, ", the others ", s.geometry.width, "x", s.geometry.height));
     }
     order = std::max(order, image.index);
   }
@@ -58,11 +57,24 @@ absl::StatusOr<SolvedImage> SolvedFromMomentState(const std::vector<DecodedImage
     std::vector<double>* target = nullptr;
     int which = 0;
     switch (image.kind) {
-      case wire::ImageKind::kCReal: target = &s.c_real; which = 0; break;
-      case wire::ImageKind::kCImag: target = &s.c_imag; which = 1; break;
-      case wire::ImageKind::kQReal: target = &s.q_real; which = 2; break;
-      case wire::ImageKind::kQImag: target = &s.q_imag; which = 3; break;
-      default: continue;
+      case wire::ImageKind::kCReal:
+        target = &s.c_real;
+        which = 0;
+        break;
+      case wire::ImageKind::kCImag:
+        target = &s.c_imag;
+        which = 1;
+        break;
+      case wire::ImageKind::kQReal:
+        target = &s.q_real;
+        which = 2;
+        break;
+      case wire::ImageKind::kQImag:
+        target = &s.q_imag;
+        which = 3;
+        break;
+      default:
+        continue;
     }
     if (image.values.size() != pixels) {
       return absl::DataLossError(absl::StrCat("MOMENT_STATE image ", image.name, ": ",
@@ -135,9 +147,9 @@ absl::StatusOr<std::unique_ptr<NatsWorker>> NatsWorker::Open(const NatsWorkerOpt
       js_PullSubscribe(&w->subscription_, w->connection_->jetstream(), subject.c_str(),
                        options.group.c_str(), nullptr, &sub, &code);
   if (status != NATS_OK) {
-    absl::Status why = wire::FromNatsStatus(
-        status, absl::StrCat("joining the workers ", options.group, " of ", subject, " at ",
-                             options.connect.servers));
+    absl::Status why =
+        wire::FromNatsStatus(status, absl::StrCat("joining the workers ", options.group, " of ",
+                                                  subject, " at ", options.connect.servers));
     if (status == NATS_NOT_FOUND || static_cast<int>(code) == 10059) {
       return absl::NotFoundError(absl::StrCat(why.message(), ": no stream ", stream));
     }
@@ -156,8 +168,8 @@ absl::Status NatsWorker::Publish(const v1::Frame& frame, double base_frequency_h
   const std::string encoding = absl::StrCat(v1::Encoding_Name(options_.encoding), "/",
                                             v1::Compression_Name(options_.compression));
   for (const wire::NatsMessage& message :
-       wire::FrameMessages(frame, options_.camera, options_.products, encoding,
-                           base_frequency_hz, max_payload - wire::kNatsHeaderRoom)) {
+       wire::FrameMessages(frame, options_.camera, options_.products, encoding, base_frequency_hz,
+                           max_payload - wire::kNatsHeaderRoom)) {
     absl::StatusOr<natsMsg*> msg = wire::ToNatsMsg(message);
     if (!msg.ok()) return msg.status();
     jsPubAck* ack = nullptr;
@@ -176,9 +188,9 @@ absl::Status NatsWorker::Publish(const v1::Frame& frame, double base_frequency_h
 absl::StatusOr<bool> NatsWorker::ProcessOne(absl::Duration wait) {
   FetchedList fetched;
   jsErrCode code = static_cast<jsErrCode>(0);
-  const natsStatus s = natsSubscription_Fetch(
-      &fetched.list, subscription_, 1, std::max<int64_t>(1, absl::ToInt64Milliseconds(wait)),
-      &code);
+  const natsStatus s =
+      natsSubscription_Fetch(&fetched.list, subscription_, 1,
+                             std::max<int64_t>(1, absl::ToInt64Milliseconds(wait)), &code);
   if (s == NATS_TIMEOUT || (s == NATS_OK && fetched.list.Count == 0)) return false;
   if (s != NATS_OK) return wire::FromNatsStatus(s, "fetching a frame");
   natsMsg* msg = fetched.list.Msgs[0];
@@ -193,9 +205,10 @@ absl::StatusOr<bool> NatsWorker::ProcessOne(absl::Duration wait) {
   v1::Frame frame;
   absl::StatusOr<std::vector<DecodedImage>> images = absl::DataLossError("");
   if (!(part.empty() || part == "1/1")) {
-    images = absl::FailedPreconditionError(absl::StrCat(
-        "frame in parts (", part, "): workers need a frame in one message; publish with "
-        "--nats-encoding float16 --nats-zstd or raise the server's max_payload"));
+    images = absl::FailedPreconditionError(
+        absl::StrCat("frame in parts (", part,
+                     "): workers need a frame in one message; publish with "
+                     "--nats-encoding float16 --nats-zstd or raise the server's max_payload"));
   } else if (!absl::SimpleAtod(Header(msg, wire::kNatsBaseFrequencyHeader), &base_frequency_hz) ||
              !(base_frequency_hz > 0.0)) {
     images = absl::DataLossError(
@@ -236,8 +249,8 @@ absl::StatusOr<bool> NatsWorker::ProcessOne(absl::Duration wait) {
   if (!encoded.ok() || !*encoded) {
     natsMsg_Term(msg, nullptr);
     ++counts_.frames_refused;
-    last_refusal_ = encoded.ok() ? absl::InternalError("a product was not computed")
-                                 : encoded.status();
+    last_refusal_ =
+        encoded.ok() ? absl::InternalError("a product was not computed") : encoded.status();
     return true;
   }
   out.set_sequence(frame.sequence());

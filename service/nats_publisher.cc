@@ -81,8 +81,7 @@ void NatsPublisher::Stop() {
   if (subscription_ != nullptr) pipeline_->Unsubscribe(subscription_);
 }
 
-void NatsPublisher::OnAck(jsCtx*, natsMsg* msg, jsPubAck* ack, jsPubAckErr* error,
-                          void* closure) {
+void NatsPublisher::OnAck(jsCtx*, natsMsg* msg, jsPubAck* ack, jsPubAckErr* error, void* closure) {
   auto* p = static_cast<NatsPublisher*>(closure);
   if (ack != nullptr && error == nullptr) {
     p->messages_acknowledged_.fetch_add(1);
@@ -90,10 +89,9 @@ void NatsPublisher::OnAck(jsCtx*, natsMsg* msg, jsPubAck* ack, jsPubAckErr* erro
     p->messages_failed_.fetch_add(1);
     if (error != nullptr) {
       absl::MutexLock lock(&p->mu_);
-      p->last_error_ =
-          absl::StrCat("JetStream refused or did not acknowledge a message: ",
-                       natsStatus_GetText(error->Err),
-                       error->ErrText != nullptr ? absl::StrCat(" (", error->ErrText, ")") : "");
+      p->last_error_ = absl::StrCat(
+          "JetStream refused or did not acknowledge a message: ", natsStatus_GetText(error->Err),
+          error->ErrText != nullptr ? absl::StrCat(" (", error->ErrText, ")") : "");
     }
   }
   natsMsg_Destroy(msg);
@@ -123,8 +121,8 @@ absl::Status NatsPublisher::EnsureStream() {
   if (info != nullptr) jsStreamInfo_Destroy(info);
   if (s != NATS_OK) {
     return wire::FromNatsStatus(
-        s, absl::StrCat("creating the JetStream stream ", name, " (", subjects,
-                        ") at ", options_.connect.servers, "; is JetStream enabled (-js)?"));
+        s, absl::StrCat("creating the JetStream stream ", name, " (", subjects, ") at ",
+                        options_.connect.servers, "; is JetStream enabled (-js)?"));
   }
   stream_epoch_ = connection_->reconnects();
   return absl::OkStatus();
@@ -143,14 +141,15 @@ bool NatsPublisher::PublishFrame(const v1::Frame& frame) {
                            pipeline_->schedule().options().base_frequency_hz,
                            max_payload - wire::kNatsHeaderRoom)) {
     absl::StatusOr<natsMsg*> msg = wire::ToNatsMsg(message);
-    natsStatus s = msg.ok() ? js_PublishMsgAsync(connection_->jetstream(), &*msg, &publish)
-                            : NATS_ERR;
+    natsStatus s =
+        msg.ok() ? js_PublishMsgAsync(connection_->jetstream(), &*msg, &publish) : NATS_ERR;
     if (msg.ok()) natsMsg_Destroy(*msg);  // null once the library took it
     if (s != NATS_OK) {
       absl::MutexLock lock(&mu_);
-      last_error_ = msg.ok() ? wire::FromNatsStatus(s, absl::StrCat("publishing ", message.subject))
-                                   .ToString()
-                             : msg.status().ToString();
+      last_error_ =
+          msg.ok()
+              ? wire::FromNatsStatus(s, absl::StrCat("publishing ", message.subject)).ToString()
+              : msg.status().ToString();
       return false;
     }
     messages_published_.fetch_add(1);

@@ -44,9 +44,9 @@ std::string DescribeConfig(const ReconstructionConfig& config) {
 
 bool IsDaemonKey(absl::string_view key) {
   static constexpr absl::string_view kKeys[] = {
-      "publish",        "nats_camera", "nats_products",  "nats_encoding", "nats_zstd",
-      "nats_max_age",   "nats_max_bytes", "nats_replicas", "nats_user_file", "nats_creds",
-      "nats_ca",        "nats_cert",   "nats_key"};
+      "publish",      "nats_camera",    "nats_products", "nats_encoding",  "nats_zstd",
+      "nats_max_age", "nats_max_bytes", "nats_replicas", "nats_user_file", "nats_creds",
+      "nats_ca",      "nats_cert",      "nats_key"};
   for (absl::string_view k : kKeys) {
     if (key == k) return true;
   }

@@ -21,12 +21,12 @@
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/moments.h"
 #include "transient/reconstruct/physical_constants.h"
-#include "transient/wire/grpc_status.h"
-#include "transient/wire/image_codec.h"
-#include "transient/wire/product_registry.h"
 #include "transient/service/nats_publisher.h"
 #include "transient/service/stream_plan.h"
 #include "transient/v1/transient.grpc.pb.h"
+#include "transient/wire/grpc_status.h"
+#include "transient/wire/image_codec.h"
+#include "transient/wire/product_registry.h"
 
 namespace transient::service {
 namespace {
@@ -353,7 +353,8 @@ class TransientServer::Service final : public v1::Transient::Service {
       absl::StatusOr<std::optional<v1::Frame>> message =
           FrameForStream(plan, key, *published, missed_pending);
       if (!message.ok()) return message.status();
-      if (!message->has_value()) continue;  // published before this subscriber's products were computed
+      if (!message->has_value())
+        continue;  // published before this subscriber's products were computed
       const v1::Frame& frame = **message;
       missed_pending = 0;
       if (!writer->Write(frame)) return absl::CancelledError("the client went away");
@@ -480,8 +481,8 @@ class WithoutReflection final : public grpc::ServerBuilderOption {
 absl::StatusOr<std::unique_ptr<TransientServer>> TransientServer::Start(
     Pipeline* pipeline, const ServerOptions& options) {
   std::unique_ptr<TransientServer> server(new TransientServer());
-  server->service_ = std::make_unique<Service>(pipeline, options.version, options.access,
-                                               options.nats);
+  server->service_ =
+      std::make_unique<Service>(pipeline, options.version, options.access, options.nats);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;

@@ -21,7 +21,6 @@ using ::transient::wire::ResolveRoi;
 // What the daemon refuses and what clients are told it refuses are one number.
 static_assert(wire::kMaxSlices == kMaxSlices);
 
-
 // The enum names of the products the registry knows: RANGE, DEPTH, ...
 std::string ValidProductNames() {
   std::vector<std::string> names;
@@ -31,7 +30,6 @@ std::string ValidProductNames() {
   return absl::StrJoin(names, ", ");
 }
 
-
 // What a depth camera serves, for its refusals.
 std::string DepthCameraServes(const ScheduleOptions& schedule) {
   return absl::StrCat("This camera serves RANGE, DEPTH, ",
@@ -39,14 +37,16 @@ std::string DepthCameraServes(const ScheduleOptions& schedule) {
                       "FLAGS and MOMENT_DEPTH of its depth");
 }
 
-
 }  // namespace
 
 v1::SourceState ToProto(SourceState state) {
   switch (state) {
-    case SourceState::kStreaming: return v1::STREAMING;
-    case SourceState::kReconnecting: return v1::RECONNECTING;
-    case SourceState::kEnded: return v1::ENDED;
+    case SourceState::kStreaming:
+      return v1::STREAMING;
+    case SourceState::kReconnecting:
+      return v1::RECONNECTING;
+    case SourceState::kEnded:
+      return v1::ENDED;
   }
   return v1::SOURCE_STATE_UNSPECIFIED;
 }
@@ -64,8 +64,8 @@ google::protobuf::Timestamp ToTimestamp(absl::Time t) {
 // unwrapping's confidence on a schedule with every harmonic. A depth camera
 // (SamplingScheme::kDepth) serves the products that need nothing (Needs::kAny), AMPLITUDE only
 // when it delivers an amplitude frame.
-absl::Status CheckScheduleServes(std::span<const v1::Product> products, bool moment_depth_of_returns,
-                                 const ScheduleOptions& schedule) {
+absl::Status CheckScheduleServes(std::span<const v1::Product> products,
+                                 bool moment_depth_of_returns, const ScheduleOptions& schedule) {
   const bool all = schedule.HasAllHarmonics();
   for (v1::Product product : products) {
     const wire::ProductSpec& spec = *wire::FindProduct(product);
@@ -80,14 +80,14 @@ absl::Status CheckScheduleServes(std::span<const v1::Product> products, bool mom
                 ? "the confidence of phase unwrapping"
                 : (product == v1::MOMENT_DEPTH ? "a moment depth map of the Pisarenko returns"
                                                : "the moment reconstruction");
-        return absl::FailedPreconditionError(
-            absl::StrCat(v1::Product_Name(product), ": ", schedule.MissingHarmonicsText(what),
-                         ". ", DepthCameraServes(schedule)));
+        return absl::FailedPreconditionError(absl::StrCat(v1::Product_Name(product), ": ",
+                                                          schedule.MissingHarmonicsText(what), ". ",
+                                                          DepthCameraServes(schedule)));
       }
       if (product == v1::AMPLITUDE && !schedule.depth_amplitude) {
-        return absl::FailedPreconditionError(absl::StrCat(
-            "AMPLITUDE: the source delivers depth without an amplitude image. ",
-            DepthCameraServes(schedule)));
+        return absl::FailedPreconditionError(
+            absl::StrCat("AMPLITUDE: the source delivers depth without an amplitude image. ",
+                         DepthCameraServes(schedule)));
       }
       continue;
     }
@@ -117,15 +117,15 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
   }
   for (int p : r.products()) {
     if (wire::FindProduct(static_cast<v1::Product>(p)) == nullptr) {
-      return absl::InvalidArgumentError(absl::StrCat("products: unknown product ", p,
-                                                     "; expected ", ValidProductNames()));
+      return absl::InvalidArgumentError(
+          absl::StrCat("products: unknown product ", p, "; expected ", ValidProductNames()));
     }
     const auto product = static_cast<v1::Product>(p);
     if (!plan.request.products.Has(product)) plan.images.products.push_back(product);
     plan.request.products.Add(product);
   }
-  if (absl::Status status = CheckScheduleServes(plan.images.products, r.moment_depth().from_returns(),
-                                                pipeline.schedule().options());
+  if (absl::Status status = CheckScheduleServes(
+          plan.images.products, r.moment_depth().from_returns(), pipeline.schedule().options());
       !status.ok()) {
     return status;
   }
@@ -138,7 +138,8 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
   }
   plan.images.encoding = r.encoding() == v1::ENCODING_UNSPECIFIED ? v1::FLOAT32 : r.encoding();
   for (v1::Product product : plan.images.products) {
-    if (absl::Status status = CheckEncoding(product, plan.images.encoding); !status.ok()) return status;
+    if (absl::Status status = CheckEncoding(product, plan.images.encoding); !status.ok())
+      return status;
   }
   if (!v1::Compression_IsValid(r.compression())) {
     return absl::InvalidArgumentError(
@@ -180,14 +181,13 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
   const int64_t frame_bytes = planes * sensor.pixel_count() * 4;
   if (frame_bytes * plan.queue_frames > kMaxQueueBytes) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "queue_frames = ", plan.queue_frames, ": frames of these products take ",
-        frame_bytes >> 10, " KiB each; at most ", kMaxQueueBytes >> 20,
+        "queue_frames = ", plan.queue_frames, ": frames of these products take ", frame_bytes >> 10,
+        " KiB each; at most ", kMaxQueueBytes >> 20,
         " MiB may wait for one client (queue_frames <= ",
         std::max<int64_t>(1, kMaxQueueBytes / std::max<int64_t>(1, frame_bytes)), ")"));
   }
   return plan;
 }
-
 
 absl::StatusOr<std::optional<v1::Frame>> FrameForStream(const StreamPlan& plan,
                                                         const std::string& key,

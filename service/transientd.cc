@@ -18,12 +18,10 @@
 #include <string>
 
 #include "CLI/CLI.hpp"
-#include "absl/strings/str_cat.h"
 #include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
-#include "transient/wire/product_registry.h"
-#include "transient/wire/address.h"
 #include "absl/time/clock.h"
 #include "transient/drivers/calibration_capture.h"
 #include "transient/drivers/source_registry.h"
@@ -33,6 +31,8 @@
 #include "transient/service/nats_publisher.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
+#include "transient/wire/address.h"
+#include "transient/wire/product_registry.h"
 
 #ifndef TRANSIENT_VERSION
 #define TRANSIENT_VERSION "dev"
@@ -186,7 +186,8 @@ int Run(int argc, char** argv) {
                  "a file holding user:password for the NATS server (not readable by others)");
   app.add_option("--nats-creds", nats.connect.creds_file,
                  "a NATS .creds file (user JWT and nkey seed; not readable by others)");
-  app.add_option("--nats-ca", nats.connect.ca_file, "PEM CA of the NATS server's certificate (TLS)");
+  app.add_option("--nats-ca", nats.connect.ca_file,
+                 "PEM CA of the NATS server's certificate (TLS)");
   app.add_option("--nats-cert", nats.connect.cert_file,
                  "PEM client certificate for the NATS server, with --nats-key");
   app.add_option("--nats-key", nats.connect.key_file, "the PEM key of --nats-cert");
@@ -233,23 +234,35 @@ int Run(int argc, char** argv) {
       const std::string flag = absl::StrCat("--", absl::StrReplaceAll(key, {{"_", "-"}}));
       if (app.count(flag) > 0) continue;  // the command line says otherwise
       bool ok = true;
-      if (key == "publish") nats.connect.servers = value;
-      else if (key == "nats_camera") nats.camera = value;
-      else if (key == "nats_products") nats_products = value;
-      else if (key == "nats_encoding") nats_encoding = value;
-      else if (key == "nats_zstd") ok = absl::SimpleAtob(value, &nats_zstd);
-      else if (key == "nats_max_age") ok = absl::SimpleAtod(value, &nats_max_age_s);
-      else if (key == "nats_max_bytes") ok = absl::SimpleAtoi(value, &nats_max_bytes);
-      else if (key == "nats_replicas") ok = absl::SimpleAtoi(value, &nats.replicas);
-      else if (key == "nats_user_file") nats.connect.user_file = value;
-      else if (key == "nats_creds") nats.connect.creds_file = value;
-      else if (key == "nats_ca") nats.connect.ca_file = value;
-      else if (key == "nats_cert") nats.connect.cert_file = value;
-      else if (key == "nats_key") nats.connect.key_file = value;
+      if (key == "publish")
+        nats.connect.servers = value;
+      else if (key == "nats_camera")
+        nats.camera = value;
+      else if (key == "nats_products")
+        nats_products = value;
+      else if (key == "nats_encoding")
+        nats_encoding = value;
+      else if (key == "nats_zstd")
+        ok = absl::SimpleAtob(value, &nats_zstd);
+      else if (key == "nats_max_age")
+        ok = absl::SimpleAtod(value, &nats_max_age_s);
+      else if (key == "nats_max_bytes")
+        ok = absl::SimpleAtoi(value, &nats_max_bytes);
+      else if (key == "nats_replicas")
+        ok = absl::SimpleAtoi(value, &nats.replicas);
+      else if (key == "nats_user_file")
+        nats.connect.user_file = value;
+      else if (key == "nats_creds")
+        nats.connect.creds_file = value;
+      else if (key == "nats_ca")
+        nats.connect.ca_file = value;
+      else if (key == "nats_cert")
+        nats.connect.cert_file = value;
+      else if (key == "nats_key")
+        nats.connect.key_file = value;
       if (!ok) {
-        std::cerr << "transientd: " << config_path << ": " << key << " = " << value
-                  << ": expected " << (key == "nats_zstd" ? "true or false" : "a number")
-                  << "\n";
+        std::cerr << "transientd: " << config_path << ": " << key << " = " << value << ": expected "
+                  << (key == "nats_zstd" ? "true or false" : "a number") << "\n";
         return 2;
       }
     }
@@ -327,8 +340,9 @@ int Run(int argc, char** argv) {
     }
     publisher = *std::move(started);
     const NatsPublishStats n = publisher->Stats();
-    Log(absl::StrCat("publishing to NATS at ", n.servers, " (", n.connected ? "connected" : "not reachable yet, retrying",
-                     "): subjects ", wire::NatsCameraSubjects(nats.camera), ", stream ",
+    Log(absl::StrCat("publishing to NATS at ", n.servers, " (",
+                     n.connected ? "connected" : "not reachable yet, retrying", "): subjects ",
+                     wire::NatsCameraSubjects(nats.camera), ", stream ",
                      wire::NatsStreamName(nats.camera)));
   }
   absl::StatusOr<std::unique_ptr<TransientServer>> server =

@@ -71,8 +71,8 @@ absl::StatusOr<std::string> ReadPemFile(absl::string_view what, const std::strin
   return pem;
 }
 
-absl::StatusOr<std::pair<std::string, std::string>> ReadUserPasswordFile(
-    absl::string_view what, const std::string& path) {
+absl::StatusOr<std::pair<std::string, std::string>> ReadUserPasswordFile(absl::string_view what,
+                                                                         const std::string& path) {
   absl::StatusOr<std::string> line = ReadSecretFile(what, path, /*secret=*/true);
   if (!line.ok()) return line.status();
   while (!line->empty() && (line->back() == '\n' || line->back() == '\r')) line->pop_back();

@@ -17,8 +17,8 @@ namespace transient::wire {
 
 absl::Status CheckNatsCameraName(absl::string_view camera) {
   if (camera.empty() || camera.size() > 64) {
-    return absl::InvalidArgumentError(absl::StrCat("camera name \"", camera,
-                                                   "\": expected 1..64 of A-Z a-z 0-9 _ -"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("camera name \"", camera, "\": expected 1..64 of A-Z a-z 0-9 _ -"));
   }
   for (char c : camera) {
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) {
@@ -46,8 +46,8 @@ absl::StatusOr<std::vector<std::string>> ParseNatsServers(absl::string_view list
     url = absl::StripAsciiWhitespace(url);
     absl::string_view rest = url;
     if (!absl::ConsumePrefix(&rest, "nats://") && !absl::ConsumePrefix(&rest, "tls://")) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "NATS server \"", url, "\": expected nats://HOST:PORT or tls://HOST:PORT"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("NATS server \"", url, "\": expected nats://HOST:PORT or tls://HOST:PORT"));
     }
     const size_t colon = rest.rfind(':');
     int port = 0;
@@ -68,10 +68,10 @@ absl::Status FromNatsStatus(natsStatus status, absl::string_view what) {
   if (status == NATS_OK) return absl::OkStatus();
   natsStatus last = NATS_OK;
   const char* text = nats_GetLastError(&last);
-  const std::string message =
-      absl::StrCat(what, ": ", natsStatus_GetText(status),
-                   text != nullptr && *text != '\0' && last == status ? absl::StrCat(" (", text, ")")
-                                                                      : std::string());
+  const std::string message = absl::StrCat(what, ": ", natsStatus_GetText(status),
+                                           text != nullptr && *text != '\0' && last == status
+                                               ? absl::StrCat(" (", text, ")")
+                                               : std::string());
   switch (status) {
     case NATS_CONNECTION_AUTH_FAILED:
     case NATS_NOT_PERMITTED:
@@ -135,8 +135,9 @@ absl::Status Configure(const NatsConnectOptions& o, const std::vector<std::strin
     if (s != NATS_OK) return FromNatsStatus(s, absl::StrCat("NATS credentials ", o.creds_file));
   }
   if (o.cert_file.empty() != o.key_file.empty()) {
-    return absl::InvalidArgumentError("NATS TLS: a client certificate needs its key, and a key "
-                                      "its certificate");
+    return absl::InvalidArgumentError(
+        "NATS TLS: a client certificate needs its key, and a key "
+        "its certificate");
   }
   if (tls) {
     s = natsOptions_SetSecure(options, true);
@@ -160,8 +161,9 @@ absl::Status Configure(const NatsConnectOptions& o, const std::vector<std::strin
 
 }  // namespace
 
-absl::StatusOr<std::unique_ptr<NatsConnection>> NatsConnection::Open(
-    const NatsConnectOptions& o, bool background, const jsOptions* jetstream) {
+absl::StatusOr<std::unique_ptr<NatsConnection>> NatsConnection::Open(const NatsConnectOptions& o,
+                                                                     bool background,
+                                                                     const jsOptions* jetstream) {
   absl::StatusOr<std::vector<std::string>> servers = ParseNatsServers(o.servers);
   if (!servers.ok()) return servers.status();
   std::unique_ptr<NatsConnection> c(new NatsConnection());
@@ -177,8 +179,7 @@ absl::StatusOr<std::unique_ptr<NatsConnection>> NatsConnection::Open(
   if (s == NATS_NO_SERVER && background) {
     // No server answers yet (refused credentials or TLS are errors now): keep trying.
     // With a callback the library connects in the background; without one it would block.
-    natsOptions_SetRetryOnFailedConnect(c->options_, true, &NatsConnection::OnConnected,
-                                        c.get());
+    natsOptions_SetRetryOnFailedConnect(c->options_, true, &NatsConnection::OnConnected, c.get());
     s = natsConnection_Connect(&c->nc_, c->options_);
     if (s == NATS_NOT_YET_CONNECTED) s = NATS_OK;
   }
@@ -301,8 +302,8 @@ FrameAssembler::Result FrameAssembler::Add(uint64_t sequence, absl::string_view 
   int count = 1;
   if (!part.empty()) {
     std::pair<absl::string_view, absl::string_view> kn = absl::StrSplit(part, '/');
-    if (!absl::SimpleAtoi(kn.first, &index) || !absl::SimpleAtoi(kn.second, &count) ||
-        count < 1 || count > 1 << 16 || index < 1 || index > count) {
+    if (!absl::SimpleAtoi(kn.first, &index) || !absl::SimpleAtoi(kn.second, &count) || count < 1 ||
+        count > 1 << 16 || index < 1 || index > count) {
       *error = absl::StrCat(kNatsPartHeader, " \"", part, "\": expected k/n with 1 <= k <= n");
       return Result::kBad;
     }
@@ -325,8 +326,8 @@ FrameAssembler::Result FrameAssembler::Add(uint64_t sequence, absl::string_view 
   if (index < count) return Result::kIncomplete;
   next_ = 0;
   if (!frame->ParseFromString(bytes_)) {
-    *error = absl::StrCat("frame ", sequence, ": ", bytes_.size(),
-                          " bytes in ", count, " parts are not a transient.v1.Frame");
+    *error = absl::StrCat("frame ", sequence, ": ", bytes_.size(), " bytes in ", count,
+                          " parts are not a transient.v1.Frame");
     bytes_.clear();
     return Result::kBad;
   }

@@ -109,11 +109,11 @@ absl::StatusOr<bool> EncodeProducts(const ProductEncoding& plan, const FrameProd
         const std::vector<double>& phases = plan.slice_phases;
         if (planes.size() != phases.size() * pixels) return false;
         for (size_t n = 0; n < phases.size() && added.ok() && *added; ++n) {
-          added = AddFloat(plan, products,
-                           std::span<const float>(planes).subspan(n * pixels, pixels),
-                           product == v1::SLICES ? ImageKind::kSlice : ImageKind::kCumulative,
-                           frame, static_cast<int>(n),
-                           PhaseToTimeOfFlight(phases[n], products.base_frequency_hz) * 1e9);
+          added =
+              AddFloat(plan, products, std::span<const float>(planes).subspan(n * pixels, pixels),
+                       product == v1::SLICES ? ImageKind::kSlice : ImageKind::kCumulative, frame,
+                       static_cast<int>(n),
+                       PhaseToTimeOfFlight(phases[n], products.base_frequency_hz) * 1e9);
         }
         break;
       }
@@ -130,9 +130,8 @@ absl::StatusOr<bool> EncodeProducts(const ProductEncoding& plan, const FrameProd
         auto it = products.moment_depth.find(plan.moment_depth);
         if (it == products.moment_depth.end()) return false;
         v1::Image* image = frame->add_images();
-        if (absl::Status status =
-                EncodeMomentDepth(*it->second, plan.moment_depth.from_returns, plan.rect,
-                                  plan.compression, image);
+        if (absl::Status status = EncodeMomentDepth(*it->second, plan.moment_depth.from_returns,
+                                                    plan.rect, plan.compression, image);
             !status.ok()) {
           return status;
         }

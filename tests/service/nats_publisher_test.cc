@@ -13,7 +13,6 @@
 #include <thread>
 
 #include "absl/strings/str_join.h"
-
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "tests/service/daemon_fixture.h"
@@ -129,7 +128,8 @@ TEST(NatsPublisher, FramesArriveAtTwoConsumersBitIdenticalToTheGrpcStream) {
       ASSERT_TRUE(WaitUntil([&] {
         absl::MutexLock lock(&mu);
         return grpc_frames.count(frame.sequence) > 0;
-      })) << "frame " << frame.sequence << " never came over gRPC";
+      })) << "frame "
+          << frame.sequence << " never came over gRPC";
       absl::MutexLock lock(&mu);
       EXPECT_TRUE(SameValues(frame.images, grpc_frames[frame.sequence]))
           << "frame " << frame.sequence << " differs between NATS and gRPC";
@@ -278,8 +278,7 @@ TEST(NatsPublisher, WrongCredentialsAreRefused) {
   ASSERT_THAT(publisher.status(), IsOk());
   NatsStreamOptions consumer_right = ConsumeFrom(server);
   consumer_right.connect.user_file = right.connect.user_file;
-  absl::StatusOr<std::unique_ptr<NatsFrameStream>> consumer =
-      NatsFrameStream::Open(consumer_right);
+  absl::StatusOr<std::unique_ptr<NatsFrameStream>> consumer = NatsFrameStream::Open(consumer_right);
   ASSERT_THAT(consumer.status(), IsOk());
   StreamFrame frame;
   EXPECT_TRUE(NextImages(**consumer, &frame));
@@ -356,8 +355,8 @@ TEST(NatsPublisher, BadOptionsAreRefusedNamingWhatIsWrong) {
   ASSERT_THAT(waiting.status(), IsOk());
   EXPECT_FALSE((*waiting)->Stats().connected);
   ASSERT_TRUE(server.Start());
-  EXPECT_TRUE(WaitUntil([&] { return (*waiting)->Stats().messages_acknowledged > 0; },
-                        absl::Seconds(30)))
+  EXPECT_TRUE(
+      WaitUntil([&] { return (*waiting)->Stats().messages_acknowledged > 0; }, absl::Seconds(30)))
       << (*waiting)->Stats().last_error;
 }
 
@@ -365,9 +364,9 @@ TEST(Transientd, PublishesToNatsAndCountsItInGetStats) {
   NatsServer server;
   ASSERT_TRUE(server.running());
   ScratchDirectory dir;
-  const std::vector<std::string> base = {TRANSIENTD_BINARY, "--source", kCamera, "--listen",
-                                         "127.0.0.1:0", "--data-dir", dir.File("data"),
-                                         "--publish", server.url()};
+  const std::vector<std::string> base = {TRANSIENTD_BINARY, "--source",    kCamera,
+                                         "--listen",        "127.0.0.1:0", "--data-dir",
+                                         dir.File("data"),  "--publish",   server.url()};
   // Bad options: exit 2 naming them.
   for (const std::vector<std::string>& bad :
        {std::vector<std::string>{"--nats-products", "moment_state,nonsense"},
@@ -378,11 +377,13 @@ TEST(Transientd, PublishesToNatsAndCountsItInGetStats) {
     argv.insert(argv.end(), bad.begin(), bad.end());
     const ::transient::testing::ProcessResult result = ::transient::testing::RunProcess(argv);
     EXPECT_EQ(result.exit_code, 2) << bad[0] << ": " << result.err;
-    EXPECT_THAT(result.err, ::testing::HasSubstr(bad[0] == "--nats-replicas" ? "replicas" : bad[0]));
+    EXPECT_THAT(result.err,
+                ::testing::HasSubstr(bad[0] == "--nats-replicas" ? "replicas" : bad[0]));
   }
   std::vector<std::string> argv = base;
-  argv.insert(argv.end(), {"--port-file", dir.File("port"), "--nats-camera", "bin", "--nats-encoding", "float16",
-                           "--nats-zstd", "--nats-products", "moment_state,range"});
+  argv.insert(argv.end(),
+              {"--port-file", dir.File("port"), "--nats-camera", "bin", "--nats-encoding",
+               "float16", "--nats-zstd", "--nats-products", "moment_state,range"});
   ::transient::testing::ChildProcess daemon(argv, dir.File("log"));
   ASSERT_TRUE(daemon.started());
   const int port = ::transient::testing::WaitForPortFile(dir.File("port"));
@@ -419,10 +420,10 @@ TEST(Transientd, TakesItsNatsSettingsFromTheConfigFile) {
   ScratchDirectory dir;
   std::ofstream(dir.File("good.conf")) << "range_method = mese\npublish = " << server.url()
                                        << "\nnats_camera = conf\nnats_encoding = float16\n";
-  std::ofstream(dir.File("bad.conf")) << "publish = " << server.url()
-                                      << "\nnats_replicas = many\n";
-  const std::vector<std::string> base = {TRANSIENTD_BINARY, "--source", kCamera, "--listen",
-                                         "127.0.0.1:0", "--data-dir", dir.File("data")};
+  std::ofstream(dir.File("bad.conf")) << "publish = " << server.url() << "\nnats_replicas = many\n";
+  const std::vector<std::string> base = {TRANSIENTD_BINARY, "--source",    kCamera,
+                                         "--listen",        "127.0.0.1:0", "--data-dir",
+                                         dir.File("data")};
   std::vector<std::string> bad = base;
   bad.insert(bad.end(), {"--config", dir.File("bad.conf")});
   const ::transient::testing::ProcessResult refused = ::transient::testing::RunProcess(bad);
@@ -456,8 +457,8 @@ std::optional<StreamState> GetStreamState(wire::NatsConnection& connection,
                                           const std::string& camera) {
   jsStreamInfo* info = nullptr;
   jsErrCode code = static_cast<jsErrCode>(0);
-  if (js_GetStreamInfo(&info, connection.jetstream(), wire::NatsStreamName(camera).c_str(),
-                       nullptr, &code) != NATS_OK) {
+  if (js_GetStreamInfo(&info, connection.jetstream(), wire::NatsStreamName(camera).c_str(), nullptr,
+                       &code) != NATS_OK) {
     return std::nullopt;
   }
   StreamState state;

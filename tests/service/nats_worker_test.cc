@@ -13,8 +13,8 @@
 #include "tests/service/daemon_fixture.h"
 #include "tests/support/nats_server.h"
 #include "tests/support/scratch_directory.h"
-#include "tests/support/subprocess.h"
 #include "tests/support/status_matchers.h"
+#include "tests/support/subprocess.h"
 #include "tests/support/wait.h"
 #include "transient/client/nats_stream.h"
 #include "transient/service/nats_publisher.h"
@@ -97,8 +97,9 @@ TEST(NatsWorker, TwoWorkersShareACamerasFramesExactlyOnce) {
   };
   std::thread a(work, first->get());
   std::thread b(work, second->get());
-  EXPECT_TRUE(WaitUntil([&] { return publisher->Stats().frames_published >= published_at_start + 20; },
-                        absl::Seconds(60)));
+  EXPECT_TRUE(
+      WaitUntil([&] { return publisher->Stats().frames_published >= published_at_start + 20; },
+                absl::Seconds(60)));
   publisher->Stop();
   publishing = false;
   a.join();
@@ -236,9 +237,9 @@ TEST(TransientTool, RecordsConsumesAndWorksOnACameraOverNats) {
       run(with({"worker"}, {"--frames", "3", "--bins", "8"}));
   ASSERT_EQ(worker.exit_code, 0) << worker.err;
   EXPECT_THAT(worker.err, ::testing::HasSubstr("3 frames done"));
-  ::transient::testing::ProcessResult slices = run(with(
-      {"client"}, {"--products", "slices", "--nats-start", "all", "--frames", "3", "--out",
-                   dir.File("slices")}));
+  ::transient::testing::ProcessResult slices =
+      run(with({"client"}, {"--products", "slices", "--nats-start", "all", "--frames", "3", "--out",
+                            dir.File("slices")}));
   ASSERT_EQ(slices.exit_code, 0) << slices.err;
   EXPECT_TRUE(std::filesystem::exists(dir.File("slices/slices/slice_007.png")));
   // Bad options: exit 2 naming them.
@@ -283,7 +284,7 @@ TEST(SolvedFromMomentState, RefusesAnIncompleteState) {
   ASSERT_THAT(solved.status(), IsOk());
   EXPECT_EQ(solved->order, 1);
   EXPECT_TRUE(solved->valid(0));
-  EXPECT_FALSE(solved->valid(1));  // NaN q: invalid
+  EXPECT_FALSE(solved->valid(1));                       // NaN q: invalid
   images.push_back(plane(wire::ImageKind::kQImag, 1));  // repeated
   EXPECT_EQ(SolvedFromMomentState(images).status().code(), absl::StatusCode::kDataLoss);
 }

@@ -3,12 +3,11 @@
 // signed by the second. Shared by the daemon's and the NATS tests.
 #pragma once
 
-#include <string>
-#include <vector>
-
 #include <sys/stat.h>
 
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "gtest/gtest.h"

@@ -10,8 +10,8 @@
 #include <fstream>
 
 #include "absl/strings/str_cat.h"
-#include "gtest/gtest.h"
 #include "absl/time/time.h"
+#include "gtest/gtest.h"
 #include "tests/support/network.h"
 #include "tests/support/wait.h"
 
@@ -57,8 +57,9 @@ void NatsServer::Kill() {
 
 bool NatsServer::Start() {
   Kill();
-  std::vector<std::string> argv = {"nats-server", "-a", "127.0.0.1", "-p", absl::StrCat(port_),
-                                   "-js", "-sd", (store_.path() / "store").string()};
+  std::vector<std::string> argv = {
+      "nats-server",       "-a",  "127.0.0.1", "-p",
+      absl::StrCat(port_), "-js", "-sd",       (store_.path() / "store").string()};
   argv.insert(argv.end(), extra_.begin(), extra_.end());
   process_ = std::make_unique<ChildProcess>(argv, log_path_);
   if (!process_->started() || !WaitUntil([&] { return Accepts(port_); }, absl::Seconds(10))) {

@@ -69,15 +69,18 @@ CLI::App* AddClientCommand(CLI::App& app, ClientCommandLine& line) {
                       "transient.<camera>.<product>; one product");
   command->add_option("--nats-camera", args.nats_camera, "the camera's name on NATS")
       ->capture_default_str();
-  command->add_option("--nats-start", args.nats_start,
-                      "new (frames from now on), all (every frame the stream keeps, then live) "
-                      "or seq:N (from the stream's message N)")
+  command
+      ->add_option("--nats-start", args.nats_start,
+                   "new (frames from now on), all (every frame the stream keeps, then live) "
+                   "or seq:N (from the stream's message N)")
       ->capture_default_str();
   command->add_option("--nats-user-file", args.nats.user_file,
                       "a file holding user:password for the NATS server (not readable by others)");
-  command->add_option("--nats-creds", args.nats.creds_file, "a NATS .creds file (JWT and nkey seed)");
+  command->add_option("--nats-creds", args.nats.creds_file,
+                      "a NATS .creds file (JWT and nkey seed)");
   command->add_option("--nats-ca", args.nats.ca_file, "PEM CA of the NATS server (TLS)");
-  command->add_option("--nats-cert", args.nats.cert_file, "PEM client certificate, with --nats-key");
+  command->add_option("--nats-cert", args.nats.cert_file,
+                      "PEM client certificate, with --nats-key");
   command->add_option("--nats-key", args.nats.key_file, "the PEM key of --nats-cert");
   command
       ->add_option("--products", line.products,

@@ -57,9 +57,10 @@ CLI::App* AddWorkerCommand(CLI::App& app, WorkerCommandLine& line) {
       ->capture_default_str();
   command->add_option("--encoding", line.encoding, "float32 or float16")->capture_default_str();
   command->add_flag("--zstd", line.zstd, "compress each image with zstd");
-  command->add_option("--ack-wait", line.ack_wait_s,
-                      "seconds a taken frame may stay unacknowledged before it goes to another "
-                      "worker (set when the group's consumer is made)")
+  command
+      ->add_option("--ack-wait", line.ack_wait_s,
+                   "seconds a taken frame may stay unacknowledged before it goes to another "
+                   "worker (set when the group's consumer is made)")
       ->capture_default_str();
   command->add_option("--frames", line.frames, "stop after this many frames (0 = never)");
   command->add_option("--nats-user-file", o.connect.user_file,
@@ -134,8 +135,6 @@ class Command final : public Subcommand {
 
 }  // namespace worker_cli
 
-std::unique_ptr<Subcommand> MakeWorkerCommand() {
-  return std::make_unique<worker_cli::Command>();
-}
+std::unique_ptr<Subcommand> MakeWorkerCommand() { return std::make_unique<worker_cli::Command>(); }
 
 }  // namespace transient::tools::cli

@@ -10,25 +10,25 @@
 #include <utility>
 
 #include "absl/algorithm/container.h"
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
-#include "absl/strings/match.h"
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "tools/transient/client/product_images.h"
 #include "tools/transient/common/run_length.h"
-#include "transient/reconstruct/percentile.h"
 #include "transient/client/client.h"
 #include "transient/client/decoded_image.h"
 #include "transient/client/frame_stream.h"
 #include "transient/client/nats_stream.h"
 #include "transient/formats/atomic_output.h"
+#include "transient/reconstruct/percentile.h"
+#include "transient/reconstruct/status_context.h"
 #include "transient/v1/transient.pb.h"
 #include "transient/wire/image_codec.h"
 #include "transient/wire/product_registry.h"
-#include "transient/reconstruct/status_context.h"
 
 namespace transient::tools {
 namespace {
@@ -192,11 +192,11 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
     summary.address = absl::StrCat("nats:", args.nats.servers);
     summary.source_uri = wire::NatsSubject(args.nats_camera, products.front());
   } else {
-    absl::StatusOr<client::Client> connected = client::Client::Connect(
-        {.address = args.connect,
-         .security = args.security,
-         .timeout_s = args.connect_timeout_s,
-         .cancel = hooks.cancel});
+    absl::StatusOr<client::Client> connected =
+        client::Client::Connect({.address = args.connect,
+                                 .security = args.security,
+                                 .timeout_s = args.connect_timeout_s,
+                                 .cancel = hooks.cancel});
     if (!connected.ok()) return connected.status();
     daemon.emplace(*std::move(connected));
     absl::StatusOr<v1::Info> got_info = daemon->GetInfo();
@@ -205,8 +205,7 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
     summary.source_uri = info.source_uri();
     summary.version = info.version();
     summary.camera_width = static_cast<int>(std::min<uint32_t>(info.camera().width(), INT32_MAX));
-    summary.camera_height =
-        static_cast<int>(std::min<uint32_t>(info.camera().height(), INT32_MAX));
+    summary.camera_height = static_cast<int>(std::min<uint32_t>(info.camera().height(), INT32_MAX));
     if (info.products_size() > 0) {
       std::vector<std::string> missing;
       for (const v1::Product product : products) {
@@ -284,8 +283,8 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
   while (received() < target && !hooks.cancelled() && next(&frame)) {
     switch (frame.kind) {
       case client::StreamFrame::Kind::kAnnouncement:
-        summary.state_changes.push_back({.after_frames = counts().frames,
-                                         .state = v1::SourceState_Name(frame.state)});
+        summary.state_changes.push_back(
+            {.after_frames = counts().frames, .state = v1::SourceState_Name(frame.state)});
         continue;
       case client::StreamFrame::Kind::kCorrupt:
         break;  // dropped; counted by the stream
@@ -357,8 +356,8 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
 
   if (!stream_error.ok()) {
     return WithContext(
-        absl::StrCat("stream from ", summary.address, " failed after ",
-                     summary.frames, " frames (what arrived is in ", args.output_dir, ")"),
+        absl::StrCat("stream from ", summary.address, " failed after ", summary.frames,
+                     " frames (what arrived is in ", args.output_dir, ")"),
         written.ok() ? stream_error
                      : absl::Status(stream_error.code(),
                                     absl::StrCat(stream_error.message(),

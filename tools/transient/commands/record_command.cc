@@ -144,8 +144,8 @@ absl::StatusOr<RecordSummary> RunRecord(const RecordArgs& args, const CommandHoo
 std::string FormatRecordSummary(const RecordSummary& s) {
   if (s.moments) {
     return absl::StrFormat("%s: %d frames of moments from %s in %.1f s%s\n  %s", s.output_path,
-                           s.cycles, s.source_uri, s.seconds,
-                           s.interrupted ? " (interrupted)" : "", s.schedule);
+                           s.cycles, s.source_uri, s.seconds, s.interrupted ? " (interrupted)" : "",
+                           s.schedule);
   }
   return absl::StrFormat(
       "%s: %d raw frames = %d transient frames from %s in %.1f s%s%s%s\n  schedule: %s",

@@ -60,9 +60,9 @@ absl::StatusOr<RecordSummary> RunRecordNats(const RecordArgs& args, const Comman
     }
     if (!writer.has_value()) {
       if ((*stream)->base_frequency_hz() <= 0.0) {
-        failure = absl::DataLossError(
-            absl::StrCat(subject, ": frames without the camera's base frequency (",
-                         wire::kNatsBaseFrequencyHeader, ")"));
+        failure = absl::DataLossError(absl::StrCat(subject,
+                                                   ": frames without the camera's base frequency (",
+                                                   wire::kNatsBaseFrequencyHeader, ")"));
         break;
       }
       MomentFileHeader header{.geometry = state->geometry,
@@ -70,13 +70,12 @@ absl::StatusOr<RecordSummary> RunRecordNats(const RecordArgs& args, const Comman
                               .base_frequency_hz = (*stream)->base_frequency_hz(),
                               .source = summary.source_uri,
                               .calibration = "as published by transientd"};
-      absl::StatusOr<MomentFileWriter> created =
-          MomentFileWriter::Create(args.output_path, header);
+      absl::StatusOr<MomentFileWriter> created = MomentFileWriter::Create(args.output_path, header);
       if (!created.ok()) return created.status();
       writer.emplace(*std::move(created));
-      summary.schedule = absl::StrFormat("%dx%d, m = %d, f = %.6g MHz", state->geometry.width,
-                                         state->geometry.height, state->order,
-                                         header.base_frequency_hz / 1e6);
+      summary.schedule =
+          absl::StrFormat("%dx%d, m = %d, f = %.6g MHz", state->geometry.width,
+                          state->geometry.height, state->order, header.base_frequency_hz / 1e6);
     }
     if (absl::Status status = writer->Append(moments, frame.capture_time_s); !status.ok()) {
       failure = status;
@@ -92,8 +91,8 @@ absl::StatusOr<RecordSummary> RunRecordNats(const RecordArgs& args, const Comman
   }
   if (!failure.ok()) return failure;
   if (!writer.has_value()) {
-    return absl::UnavailableError(absl::StrCat("no frame on ", subject, " at ",
-                                               args.nats.servers, " within the time given"));
+    return absl::UnavailableError(
+        absl::StrCat("no frame on ", subject, " at ", args.nats.servers, " within the time given"));
   }
   return summary;
 }

@@ -33,8 +33,8 @@ struct NatsPublishOptions {
   // (oldest first); zero = no limit of that kind.
   absl::Duration max_age = absl::Hours(1);
   int64_t max_bytes = int64_t{1} << 30;
-  int replicas = 1;        // copies kept by a cluster's servers (1..5)
-  int max_pending = 256;   // messages published and not yet acknowledged, at most
+  int replicas = 1;       // copies kept by a cluster's servers (1..5)
+  int max_pending = 256;  // messages published and not yet acknowledged, at most
 };
 
 // What the publisher did since it started.
@@ -42,13 +42,13 @@ struct NatsPublishStats {
   std::string servers;
   std::string camera;
   bool connected = false;
-  uint64_t frames_published = 0;        // every message of the frame handed to NATS
+  uint64_t frames_published = 0;  // every message of the frame handed to NATS
   uint64_t messages_published = 0;
-  uint64_t messages_acknowledged = 0;   // stored by JetStream
-  uint64_t messages_failed = 0;         // refused or unacknowledged within the wait
+  uint64_t messages_acknowledged = 0;        // stored by JetStream
+  uint64_t messages_failed = 0;              // refused or unacknowledged within the wait
   uint64_t frames_dropped_disconnected = 0;  // no server reachable
-  uint64_t frames_dropped_behind = 0;   // the NATS side fell behind the camera (its queue)
-  uint64_t frames_dropped_error = 0;    // a publish failed mid-frame (the rest was not sent)
+  uint64_t frames_dropped_behind = 0;        // the NATS side fell behind the camera (its queue)
+  uint64_t frames_dropped_error = 0;         // a publish failed mid-frame (the rest was not sent)
   int64_t disconnects = 0;
   int64_t reconnects = 0;
   std::string last_error;

@@ -27,11 +27,11 @@
 namespace transient::wire {
 
 // Headers of every message (NATS headers, JetStream keeps them).
-inline constexpr char kNatsSequenceHeader[] = "Transient-Sequence";        // Frame.sequence
-inline constexpr char kNatsCaptureTimeHeader[] = "Transient-Capture-Time"; // seconds, %.9f
-inline constexpr char kNatsProductHeader[] = "Transient-Product";          // MOMENT_STATE
-inline constexpr char kNatsEncodingHeader[] = "Transient-Encoding";        // FLOAT32/ZSTD
-inline constexpr char kNatsPartHeader[] = "Transient-Part";                // "k/n", k = 1..n
+inline constexpr char kNatsSequenceHeader[] = "Transient-Sequence";         // Frame.sequence
+inline constexpr char kNatsCaptureTimeHeader[] = "Transient-Capture-Time";  // seconds, %.9f
+inline constexpr char kNatsProductHeader[] = "Transient-Product";           // MOMENT_STATE
+inline constexpr char kNatsEncodingHeader[] = "Transient-Encoding";         // FLOAT32/ZSTD
+inline constexpr char kNatsPartHeader[] = "Transient-Part";                 // "k/n", k = 1..n
 inline constexpr char kNatsBaseFrequencyHeader[] = "Transient-Base-Frequency-Hz";  // f, %.17g
 
 // A camera's name in subjects and the stream: 1..64 of [A-Za-z0-9_-]. InvalidArgument naming
