@@ -356,7 +356,8 @@ absl::StatusOr<ClientSummary> RunClient(const ClientArgs& args, const CommandHoo
 
   if (!stream_error.ok()) {
     return WithContext(
-        absl::StrCat("stream from ", summary.address, " failed after ", summary.frames,
+        absl::StrCat("stream from ", over_nats ? summary.address : "transientd at " + args.connect,
+                     " failed after ", summary.frames,
                      " frames (what arrived is in ", args.output_dir, ")"),
         written.ok() ? stream_error
                      : absl::Status(stream_error.code(),
