@@ -2,12 +2,14 @@
 #include "transient/client/nats_stream.h"
 
 #include <algorithm>
+#include <cmath>
 #include <utility>
 
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "absl/time/time.h"
 
 namespace transient::client {
 namespace {
@@ -34,9 +36,20 @@ absl::Status ParseNatsStart(const std::string& option, const std::string& text,
              sequence >= 1) {
     options->start = NatsStreamOptions::Start::kSequence;
     options->start_sequence = sequence;
+  } else if (double seconds = 0.0; absl::StartsWith(text, "ago:") &&
+                                   absl::SimpleAtod(text.substr(4), &seconds) &&
+                                   std::isfinite(seconds) && seconds >= 0.0) {
+    options->start = NatsStreamOptions::Start::kTime;
+    options->start_time = absl::Now() - absl::Seconds(seconds);
+  } else if (absl::Time time; absl::StartsWith(text, "time:") &&
+                              absl::ParseTime(absl::RFC3339_full, text.substr(5), &time, nullptr)) {
+    options->start = NatsStreamOptions::Start::kTime;
+    options->start_time = time;
   } else {
     return absl::InvalidArgumentError(
-        absl::StrCat(option, " '", text, "': expected new, all or seq:N (a stream sequence >= 1)"));
+        absl::StrCat(option, " '", text,
+                     "': expected new, all, seq:N (a stream sequence >= 1), ago:SECONDS or "
+                     "time:RFC3339 (2026-12-03T10:00:00Z)"));
   }
   return absl::OkStatus();
 }

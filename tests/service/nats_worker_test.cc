@@ -242,6 +242,11 @@ TEST(TransientTool, RecordsConsumesAndWorksOnACameraOverNats) {
                             dir.File("slices")}));
   ASSERT_EQ(slices.exit_code, 0) << slices.err;
   EXPECT_TRUE(std::filesystem::exists(dir.File("slices/slices/slice_007.png")));
+  // The last seconds again: frames from 60 s ago (all of this stream), then live.
+  ::transient::testing::ProcessResult again = run(with(
+      {"client"}, {"--products", "moment_state", "--nats-start", "ago:60", "--frames", "2",
+                   "--out", dir.File("again")}));
+  EXPECT_EQ(again.exit_code, 0) << again.err;
   // Bad options: exit 2 naming them.
   ::transient::testing::ProcessResult both =
       run(with({"record", "--source", kCamera}, {"--frames", "1", "--out", dir.File("x.h5")}));
@@ -256,6 +261,26 @@ TEST(TransientTool, RecordsConsumesAndWorksOnACameraOverNats) {
       run(with({"client"}, {"--products", "range,slices", "--out", dir.File("z")}));
   EXPECT_EQ(two.exit_code, 2);
   EXPECT_THAT(two.err, ::testing::HasSubstr("exactly one"));
+}
+
+TEST(ParseNatsStart, TakesEveryStartAndRefusesTheRest) {
+  NatsStreamOptions o;
+  ASSERT_THAT(ParseNatsStart("--s", "seq:42", &o), IsOk());
+  EXPECT_EQ(o.start, NatsStreamOptions::Start::kSequence);
+  EXPECT_EQ(o.start_sequence, 42u);
+  ASSERT_THAT(ParseNatsStart("--s", "time:2026-12-03T10:00:00Z", &o), IsOk());
+  EXPECT_EQ(o.start, NatsStreamOptions::Start::kTime);
+  EXPECT_EQ(o.start_time, absl::FromUnixSeconds(1796292000));
+  ASSERT_THAT(ParseNatsStart("--s", "ago:60", &o), IsOk());
+  EXPECT_EQ(o.start, NatsStreamOptions::Start::kTime);
+  EXPECT_NEAR(absl::ToDoubleSeconds(absl::Now() - o.start_time), 60.0, 5.0);
+  ASSERT_THAT(ParseNatsStart("--s", "all", &o), IsOk());
+  EXPECT_EQ(o.start, NatsStreamOptions::Start::kAll);
+  for (const char* bad : {"", "seq:0", "seq:-1", "ago:-5", "ago:nan", "time:yesterday", "old"}) {
+    const absl::Status status = ParseNatsStart("--nats-start", bad, &o);
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << bad;
+    EXPECT_THAT(status.message(), ::testing::HasSubstr("--nats-start")) << bad;
+  }
 }
 
 TEST(SolvedFromMomentState, RefusesAnIncompleteState) {

@@ -71,8 +71,9 @@ CLI::App* AddClientCommand(CLI::App& app, ClientCommandLine& line) {
       ->capture_default_str();
   command
       ->add_option("--nats-start", args.nats_start,
-                   "new (frames from now on), all (every frame the stream keeps, then live) "
-                   "or seq:N (from the stream's message N)")
+                   "new (frames from now on), all (every frame the stream keeps, then live), "
+                   "seq:N (from the stream's message N), ago:SECONDS (the last seconds again) or "
+                   "time:RFC3339")
       ->capture_default_str();
   command->add_option("--nats-user-file", args.nats.user_file,
                       "a file holding user:password for the NATS server (not readable by others)");

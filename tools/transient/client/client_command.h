@@ -46,7 +46,8 @@ struct ClientArgs {
   // --nats: receive from NATS JetStream instead of gRPC (README, "Many cameras, many
   // machines"): the frames transientd --publish put on transient.<nats_camera>.<product>, one
   // product. nats_start: "new" (frames from now on), "all" (every frame the stream keeps, then
-  // live) or "seq:N" (from the stream's message N, then live).
+  // live), "seq:N" (from the stream's message N, then live), "ago:SECONDS" or "time:RFC3339"
+  // (client::ParseNatsStart).
   wire::NatsConnectOptions nats = {};  // nats.servers empty = gRPC
   std::string nats_camera = "camera";
   std::string nats_start = "new";

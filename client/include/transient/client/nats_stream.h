@@ -38,8 +38,9 @@ struct NatsStreamOptions {
   absl::Time deadline = absl::InfiniteFuture();
 };
 
-// Where a consumer starts, as the command line says it: "new", "all" or "seq:N" (N >= 1) into
-// start and start_sequence of *options. InvalidArgument naming `option` otherwise.
+// Where a consumer starts, as the command line says it, into *options: "new", "all", "seq:N"
+// (N >= 1), "ago:SECONDS" (frames stored that long ago or later: the last minute again is
+// ago:60) or "time:RFC3339" (2026-12-03T10:00:00Z). InvalidArgument naming `option` otherwise.
 absl::Status ParseNatsStart(const std::string& option, const std::string& text,
                             NatsStreamOptions* options);
 
