@@ -243,9 +243,9 @@ TEST(TransientTool, RecordsConsumesAndWorksOnACameraOverNats) {
   ASSERT_EQ(slices.exit_code, 0) << slices.err;
   EXPECT_TRUE(std::filesystem::exists(dir.File("slices/slices/slice_007.png")));
   // The last seconds again: frames from 60 s ago (all of this stream), then live.
-  ::transient::testing::ProcessResult again = run(with(
-      {"client"}, {"--products", "moment_state", "--nats-start", "ago:60", "--frames", "2",
-                   "--out", dir.File("again")}));
+  ::transient::testing::ProcessResult again =
+      run(with({"client"}, {"--products", "moment_state", "--nats-start", "ago:60", "--frames", "2",
+                            "--out", dir.File("again")}));
   EXPECT_EQ(again.exit_code, 0) << again.err;
   // Bad options: exit 2 naming them.
   ::transient::testing::ProcessResult both =

@@ -25,7 +25,9 @@ CLI::App* AddRecordCommand(CLI::App& app, ::transient::tools::RecordArgs& args) 
                       "for `transient reconstruct`");
   command->add_option("--nats-camera", args.nats_camera, "the camera's name on NATS")
       ->capture_default_str();
-  command->add_option("--nats-start", args.nats_start, "new, all, seq:N, ago:SECONDS or time:RFC3339")->capture_default_str();
+  command
+      ->add_option("--nats-start", args.nats_start, "new, all, seq:N, ago:SECONDS or time:RFC3339")
+      ->capture_default_str();
   command->add_option("--nats-user-file", args.nats.user_file,
                       "a file holding user:password (not readable by others)");
   command->add_option("--nats-creds", args.nats.creds_file, "a NATS .creds file");
