@@ -16,13 +16,6 @@ namespace {
 
 constexpr int64_t kPollMs = 100;
 
-// The value of header `key` of `msg`, or "".
-absl::string_view Header(natsMsg* msg, const char* key) {
-  const char* value = nullptr;
-  if (natsMsgHeader_Get(msg, key, &value) != NATS_OK || value == nullptr) return {};
-  return value;
-}
-
 }  // namespace
 
 absl::Status ParseNatsStart(const std::string& option, const std::string& text,
@@ -95,15 +88,11 @@ absl::StatusOr<std::unique_ptr<NatsFrameStream>> NatsFrameStream::Open(
   natsStatus status = js_SubscribeSync(&s->subscription_, s->connection_->jetstream(),
                                        subject.c_str(), nullptr, &sub, &code);
   if (status != NATS_OK) {
-    absl::Status why =
-        wire::FromNatsStatus(status, absl::StrCat("subscribing to ", subject, " in stream ", stream,
-                                                  " at ", options.connect.servers));
-    if (status == NATS_NOT_FOUND || static_cast<int>(code) == 10059 /* stream not found */) {
-      return absl::NotFoundError(absl::StrCat(why.message(), ": no stream ", stream,
-                                              "; has a transientd --publish --nats-camera ",
-                                              options.camera, " run against this server?"));
-    }
-    return why;
+    return wire::FromNatsSubscribeStatus(
+        status, code,
+        absl::StrCat("subscribing to ", subject, " in stream ", stream, " at ",
+                     options.connect.servers),
+        options.camera);
   }
   // Frames of a few MB each: let the library hold a few hundred MB of them, not its default.
   natsSubscription_SetPendingLimits(s->subscription_, 65536, 512 << 20);
@@ -138,10 +127,10 @@ bool NatsFrameStream::Next(StreamFrame* frame) {
       continue;
     }
     uint64_t sequence = 0;
-    (void)absl::SimpleAtoi(Header(msg, wire::kNatsSequenceHeader), &sequence);
-    const absl::string_view part = Header(msg, wire::kNatsPartHeader);
+    (void)absl::SimpleAtoi(wire::NatsHeader(msg, wire::kNatsSequenceHeader), &sequence);
+    const absl::string_view part = wire::NatsHeader(msg, wire::kNatsPartHeader);
     double frequency = 0.0;
-    if (absl::SimpleAtod(Header(msg, wire::kNatsBaseFrequencyHeader), &frequency)) {
+    if (absl::SimpleAtod(wire::NatsHeader(msg, wire::kNatsBaseFrequencyHeader), &frequency)) {
       base_frequency_hz_ = frequency;
     }
     const absl::string_view data(natsMsg_GetData(msg),

@@ -15,12 +15,6 @@
 namespace transient::client {
 namespace {
 
-absl::string_view Header(natsMsg* msg, const char* key) {
-  const char* value = nullptr;
-  if (natsMsgHeader_Get(msg, key, &value) != NATS_OK || value == nullptr) return {};
-  return value;
-}
-
 // Owns the messages of a fetch.
 struct FetchedList {
   natsMsgList list{};
@@ -147,13 +141,11 @@ absl::StatusOr<std::unique_ptr<NatsWorker>> NatsWorker::Open(const NatsWorkerOpt
       js_PullSubscribe(&w->subscription_, w->connection_->jetstream(), subject.c_str(),
                        options.group.c_str(), nullptr, &sub, &code);
   if (status != NATS_OK) {
-    absl::Status why =
-        wire::FromNatsStatus(status, absl::StrCat("joining the workers ", options.group, " of ",
-                                                  subject, " at ", options.connect.servers));
-    if (status == NATS_NOT_FOUND || static_cast<int>(code) == 10059) {
-      return absl::NotFoundError(absl::StrCat(why.message(), ": no stream ", stream));
-    }
-    return why;
+    return wire::FromNatsSubscribeStatus(
+        status, code,
+        absl::StrCat("joining the workers ", options.group, " of ", subject, " at ",
+                     options.connect.servers),
+        options.camera);
   }
   return w;
 }
@@ -200,7 +192,7 @@ absl::StatusOr<bool> NatsWorker::ProcessOne(absl::Duration wait) {
     redelivered = meta->NumDelivered > 1;
     jsMsgMetaData_Destroy(meta);
   }
-  const absl::string_view part = Header(msg, wire::kNatsPartHeader);
+  const absl::string_view part = wire::NatsHeader(msg, wire::kNatsPartHeader);
   double base_frequency_hz = 0.0;
   v1::Frame frame;
   absl::StatusOr<std::vector<DecodedImage>> images = absl::DataLossError("");
@@ -209,7 +201,7 @@ absl::StatusOr<bool> NatsWorker::ProcessOne(absl::Duration wait) {
         absl::StrCat("frame in parts (", part,
                      "): workers need a frame in one message; publish with "
                      "--nats-encoding float16 --nats-zstd or raise the server's max_payload"));
-  } else if (!absl::SimpleAtod(Header(msg, wire::kNatsBaseFrequencyHeader), &base_frequency_hz) ||
+  } else if (!absl::SimpleAtod(wire::NatsHeader(msg, wire::kNatsBaseFrequencyHeader), &base_frequency_hz) ||
              !(base_frequency_hz > 0.0)) {
     images = absl::DataLossError(
         absl::StrCat("no ", wire::kNatsBaseFrequencyHeader, " header with a frequency > 0"));

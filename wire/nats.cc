@@ -101,6 +101,24 @@ absl::Status FromNatsStatus(natsStatus status, absl::string_view what) {
   }
 }
 
+absl::string_view NatsHeader(natsMsg* msg, const char* key) {
+  const char* value = nullptr;
+  if (natsMsgHeader_Get(msg, key, &value) != NATS_OK || value == nullptr) return {};
+  return value;
+}
+
+absl::Status FromNatsSubscribeStatus(natsStatus status, jsErrCode code, absl::string_view what,
+                                     absl::string_view camera) {
+  constexpr int kStreamNotFound = 10059;  // JetStream's JSStreamNotFoundErr
+  absl::Status why = FromNatsStatus(status, what);
+  if (status == NATS_NOT_FOUND || static_cast<int>(code) == kStreamNotFound) {
+    return absl::NotFoundError(absl::StrCat(why.message(), ": no stream ", NatsStreamName(camera),
+                                            "; has a transientd --publish --nats-camera ", camera,
+                                            " run against this server?"));
+  }
+  return why;
+}
+
 namespace {
 
 // The options of `o`, or why not. `options` is destroyed on error.

@@ -75,14 +75,7 @@ CLI::App* AddClientCommand(CLI::App& app, ClientCommandLine& line) {
                    "seq:N (from the stream's message N), ago:SECONDS (the last seconds again) or "
                    "time:RFC3339")
       ->capture_default_str();
-  command->add_option("--nats-user-file", args.nats.user_file,
-                      "a file holding user:password for the NATS server (not readable by others)");
-  command->add_option("--nats-creds", args.nats.creds_file,
-                      "a NATS .creds file (JWT and nkey seed)");
-  command->add_option("--nats-ca", args.nats.ca_file, "PEM CA of the NATS server (TLS)");
-  command->add_option("--nats-cert", args.nats.cert_file,
-                      "PEM client certificate, with --nats-key");
-  command->add_option("--nats-key", args.nats.key_file, "the PEM key of --nats-cert");
+  AddNatsSecurityOptions(command, &args.nats);
   command
       ->add_option("--products", line.products,
                    absl::StrCat("comma-separated: ",

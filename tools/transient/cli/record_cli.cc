@@ -3,6 +3,7 @@
 
 #include <memory>
 #include "tools/transient/cli/run_command.h"
+#include "tools/transient/cli/security_options.h"
 #include "tools/transient/cli/subcommand.h"
 #include "tools/transient/common/exit_status.h"
 #include "tools/transient/commands/record_command.h"
@@ -28,12 +29,7 @@ CLI::App* AddRecordCommand(CLI::App& app, ::transient::tools::RecordArgs& args) 
   command
       ->add_option("--nats-start", args.nats_start, "new, all, seq:N, ago:SECONDS or time:RFC3339")
       ->capture_default_str();
-  command->add_option("--nats-user-file", args.nats.user_file,
-                      "a file holding user:password (not readable by others)");
-  command->add_option("--nats-creds", args.nats.creds_file, "a NATS .creds file");
-  command->add_option("--nats-ca", args.nats.ca_file, "PEM CA of the NATS server (TLS)");
-  command->add_option("--nats-cert", args.nats.cert_file, "PEM client certificate");
-  command->add_option("--nats-key", args.nats.key_file, "the PEM key of --nats-cert");
+  AddNatsSecurityOptions(command, &args.nats);
   command->add_option("--out", args.output_path, "capture file to write (must not exist)")
       ->required();
   command->add_option("--frames", args.frames, "transient frames (capture cycles) to record");

@@ -9,6 +9,7 @@
 #include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
 #include "tools/transient/cli/run_command.h"
+#include "tools/transient/cli/security_options.h"
 #include "tools/transient/cli/subcommand.h"
 #include "tools/transient/common/exit_status.h"
 #include "transient/client/nats_worker.h"
@@ -63,12 +64,7 @@ CLI::App* AddWorkerCommand(CLI::App& app, WorkerCommandLine& line) {
                    "worker (set when the group's consumer is made)")
       ->capture_default_str();
   command->add_option("--frames", line.frames, "stop after this many frames (0 = never)");
-  command->add_option("--nats-user-file", o.connect.user_file,
-                      "a file holding user:password (not readable by others)");
-  command->add_option("--nats-creds", o.connect.creds_file, "a NATS .creds file");
-  command->add_option("--nats-ca", o.connect.ca_file, "PEM CA of the NATS server (TLS)");
-  command->add_option("--nats-cert", o.connect.cert_file, "PEM client certificate");
-  command->add_option("--nats-key", o.connect.key_file, "the PEM key of --nats-cert");
+  AddNatsSecurityOptions(command, &o.connect);
   return command;
 }
 

@@ -62,6 +62,15 @@ struct NatsConnectOptions {
 // The servers of `list` (comma-separated URLs); InvalidArgument naming a bad one.
 absl::StatusOr<std::vector<std::string>> ParseNatsServers(absl::string_view list);
 
+// The value of header `key` of `msg`, or "" when it has none.
+absl::string_view NatsHeader(natsMsg* msg, const char* key);
+
+// The absl::Status of subscribing to a camera's stream that returned `status` and JetStream's
+// `code`: NotFound naming the stream and the publisher that would make it when the camera has
+// none, else FromNatsStatus(status, what).
+absl::Status FromNatsSubscribeStatus(natsStatus status, jsErrCode code, absl::string_view what,
+                                     absl::string_view camera);
+
 // The absl::Status of a NATS call that returned `status`: the library's last error text, and
 // Unauthenticated for refused credentials, Unavailable for servers that cannot be reached.
 absl::Status FromNatsStatus(natsStatus status, absl::string_view what);
