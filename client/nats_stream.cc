@@ -88,11 +88,10 @@ absl::StatusOr<std::unique_ptr<NatsFrameStream>> NatsFrameStream::Open(
   natsStatus status = js_SubscribeSync(&s->subscription_, s->connection_->jetstream(),
                                        subject.c_str(), nullptr, &sub, &code);
   if (status != NATS_OK) {
-    return wire::FromNatsSubscribeStatus(
-        status, code,
-        absl::StrCat("subscribing to ", subject, " in stream ", stream, " at ",
-                     options.connect.servers),
-        options.camera);
+    return wire::FromNatsSubscribeStatus(status, code,
+                                         absl::StrCat("subscribing to ", subject, " in stream ",
+                                                      stream, " at ", options.connect.servers),
+                                         options.camera);
   }
   // Frames of a few MB each: let the library hold a few hundred MB of them, not its default.
   natsSubscription_SetPendingLimits(s->subscription_, 65536, 512 << 20);

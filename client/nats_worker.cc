@@ -141,11 +141,10 @@ absl::StatusOr<std::unique_ptr<NatsWorker>> NatsWorker::Open(const NatsWorkerOpt
       js_PullSubscribe(&w->subscription_, w->connection_->jetstream(), subject.c_str(),
                        options.group.c_str(), nullptr, &sub, &code);
   if (status != NATS_OK) {
-    return wire::FromNatsSubscribeStatus(
-        status, code,
-        absl::StrCat("joining the workers ", options.group, " of ", subject, " at ",
-                     options.connect.servers),
-        options.camera);
+    return wire::FromNatsSubscribeStatus(status, code,
+                                         absl::StrCat("joining the workers ", options.group, " of ",
+                                                      subject, " at ", options.connect.servers),
+                                         options.camera);
   }
   return w;
 }
@@ -201,7 +200,8 @@ absl::StatusOr<bool> NatsWorker::ProcessOne(absl::Duration wait) {
         absl::StrCat("frame in parts (", part,
                      "): workers need a frame in one message; publish with "
                      "--nats-encoding float16 --nats-zstd or raise the server's max_payload"));
-  } else if (!absl::SimpleAtod(wire::NatsHeader(msg, wire::kNatsBaseFrequencyHeader), &base_frequency_hz) ||
+  } else if (!absl::SimpleAtod(wire::NatsHeader(msg, wire::kNatsBaseFrequencyHeader),
+                               &base_frequency_hz) ||
              !(base_frequency_hz > 0.0)) {
     images = absl::DataLossError(
         absl::StrCat("no ", wire::kNatsBaseFrequencyHeader, " header with a frequency > 0"));

@@ -1,12 +1,12 @@
 // `transient record`: its command line.
 #include <CLI/CLI.hpp>
-
 #include <memory>
+
 #include "tools/transient/cli/run_command.h"
 #include "tools/transient/cli/security_options.h"
 #include "tools/transient/cli/subcommand.h"
-#include "tools/transient/common/exit_status.h"
 #include "tools/transient/commands/record_command.h"
+#include "tools/transient/common/exit_status.h"
 
 namespace transient::tools::cli {
 namespace record_cli {
