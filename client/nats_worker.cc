@@ -154,12 +154,12 @@ NatsWorker::~NatsWorker() {
   if (subscription_ != nullptr) natsSubscription_Destroy(subscription_);
 }
 
-absl::Status NatsWorker::Publish(const v1::Frame& frame, double base_frequency_hz) {
+absl::Status NatsWorker::Publish(v1::Frame frame, double base_frequency_hz) {
   const int64_t max_payload = connection_->max_payload();
   const std::string encoding = absl::StrCat(v1::Encoding_Name(options_.encoding), "/",
                                             v1::Compression_Name(options_.compression));
   for (const wire::NatsMessage& message :
-       wire::FrameMessages(frame, options_.camera, options_.products, encoding, base_frequency_hz,
+       wire::FrameMessages(std::move(frame), options_.camera, options_.products, encoding, base_frequency_hz,
                            max_payload - wire::kNatsHeaderRoom)) {
     absl::StatusOr<natsMsg*> msg = wire::ToNatsMsg(message);
     if (!msg.ok()) return msg.status();
@@ -252,7 +252,7 @@ absl::StatusOr<bool> NatsWorker::ProcessOne(absl::Duration wait) {
   out.set_latency_s(frame.latency_s());
   out.set_missed(frame.missed());
   *out.mutable_roi() = frame.roi();
-  if (absl::Status published = Publish(out, base_frequency_hz); !published.ok()) {
+  if (absl::Status published = Publish(std::move(out), base_frequency_hz); !published.ok()) {
     ++counts_.publish_failures;
     natsMsg_Nak(msg, nullptr);  // to another worker, or to this one again
     return published;

@@ -128,7 +128,7 @@ absl::Status NatsPublisher::EnsureStream() {
   return absl::OkStatus();
 }
 
-bool NatsPublisher::PublishFrame(const v1::Frame& frame) {
+bool NatsPublisher::PublishFrame(v1::Frame frame) {
   const int64_t max_payload = connection_->max_payload();
   if (max_payload <= wire::kNatsHeaderRoom) return false;
   const std::string encoding = absl::StrCat(v1::Encoding_Name(plan_.images.encoding), "/",
@@ -137,7 +137,7 @@ bool NatsPublisher::PublishFrame(const v1::Frame& frame) {
   jsPubOptions_Init(&publish);
   publish.MaxWait = options_.connect.timeout_ms;  // an unacknowledged message fails after this
   for (const wire::NatsMessage& message :
-       wire::FrameMessages(frame, options_.camera, plan_.images.products, encoding,
+       wire::FrameMessages(std::move(frame), options_.camera, plan_.images.products, encoding,
                            pipeline_->schedule().options().base_frequency_hz,
                            max_payload - wire::kNatsHeaderRoom)) {
     absl::StatusOr<natsMsg*> msg = wire::ToNatsMsg(message);
@@ -193,7 +193,7 @@ void NatsPublisher::Run() {
       continue;
     }
     if (!frame->has_value()) continue;  // published before the products were computed
-    if (PublishFrame(**frame)) {
+    if (PublishFrame(*std::move(*frame))) {
       frames_published_.fetch_add(1);
       missed_pending = 0;
     } else {

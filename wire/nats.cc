@@ -262,7 +262,7 @@ std::vector<NatsPart> SplitFrame(const v1::Frame& frame, int64_t max_part_bytes)
   return parts;
 }
 
-std::vector<NatsMessage> FrameMessages(const v1::Frame& frame, absl::string_view camera,
+std::vector<NatsMessage> FrameMessages(v1::Frame frame, absl::string_view camera,
                                        const std::vector<v1::Product>& products,
                                        absl::string_view encoding, double base_frequency_hz,
                                        int64_t max_part_bytes) {
@@ -272,14 +272,16 @@ std::vector<NatsMessage> FrameMessages(const v1::Frame& frame, absl::string_view
   std::snprintf(capture, sizeof(capture), "%.9f", frame.capture_time_s());
   char frequency[64];
   std::snprintf(frequency, sizeof(frequency), "%.17g", base_frequency_hz);
+  // Several products: each image moves once into its product's frame, no image is copied.
+  google::protobuf::RepeatedPtrField<v1::Image> images;
+  if (products.size() > 1) images.Swap(frame.mutable_images());
   for (v1::Product product : products) {
     v1::Frame one;
     const v1::Frame* whole = &frame;
     if (products.size() > 1) {
-      one = frame;
-      one.clear_images();
-      for (const v1::Image& image : frame.images()) {
-        if (image.product() == product) *one.add_images() = image;
+      one = frame;  // without images
+      for (v1::Image& image : images) {
+        if (image.product() == product) *one.add_images() = std::move(image);
       }
       whole = &one;
     }

@@ -75,7 +75,7 @@ class NatsWorker {
 
  private:
   NatsWorker() = default;
-  absl::Status Publish(const v1::Frame& frame, double base_frequency_hz);
+  absl::Status Publish(v1::Frame frame, double base_frequency_hz);
 
   NatsWorkerOptions options_;
   std::unique_ptr<wire::NatsConnection> connection_;

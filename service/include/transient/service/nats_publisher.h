@@ -75,7 +75,7 @@ class NatsPublisher {
   void Run();
   absl::Status EnsureStream();
   // Publishes the messages of one frame; false when one failed.
-  bool PublishFrame(const v1::Frame& frame);
+  bool PublishFrame(v1::Frame frame);
 
   Pipeline* pipeline_ = nullptr;
   NatsPublishOptions options_;

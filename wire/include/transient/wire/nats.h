@@ -140,7 +140,7 @@ struct NatsMessage {
 // that product's images (the frame itself when it is the only one), on NatsSubject(camera,
 // product), cut into parts of at most max_part_bytes, each with the headers above. `encoding`
 // names the images' encoding and compression ("FLOAT32/NONE").
-std::vector<NatsMessage> FrameMessages(const v1::Frame& frame, absl::string_view camera,
+std::vector<NatsMessage> FrameMessages(v1::Frame frame, absl::string_view camera,
                                        const std::vector<v1::Product>& products,
                                        absl::string_view encoding, double base_frequency_hz,
                                        int64_t max_part_bytes);
