@@ -159,8 +159,8 @@ absl::Status NatsWorker::Publish(v1::Frame frame, double base_frequency_hz) {
   const std::string encoding = absl::StrCat(v1::Encoding_Name(options_.encoding), "/",
                                             v1::Compression_Name(options_.compression));
   for (const wire::NatsMessage& message :
-       wire::FrameMessages(std::move(frame), options_.camera, options_.products, encoding, base_frequency_hz,
-                           max_payload - wire::kNatsHeaderRoom)) {
+       wire::FrameMessages(std::move(frame), options_.camera, options_.products, encoding,
+                           base_frequency_hz, max_payload - wire::kNatsHeaderRoom)) {
     absl::StatusOr<natsMsg*> msg = wire::ToNatsMsg(message);
     if (!msg.ok()) return msg.status();
     jsPubAck* ack = nullptr;
