@@ -328,13 +328,19 @@ FrameAssembler::Result FrameAssembler::Add(uint64_t sequence, absl::string_view 
       return Result::kBad;
     }
   }
+  // A frame is counted once, however many of its parts are skipped.
+  auto abandon = [this](uint64_t frame) {
+    if (!abandoned_any_ || frame != last_abandoned_) ++abandoned_;
+    abandoned_any_ = true;
+    last_abandoned_ = frame;
+  };
   if (next_ != 0 && (sequence != sequence_ || index != next_ || count != count_)) {
-    ++abandoned_;  // the rest of the frame being joined never came
+    abandon(sequence_);  // the rest of the frame being joined never came
     next_ = 0;
   }
   if (next_ == 0) {
     if (index != 1) {
-      if (index == count) ++abandoned_;  // counted once per frame begun elsewhere
+      abandon(sequence);  // begun before this consumer, or its first parts lost
       return Result::kIncomplete;
     }
     sequence_ = sequence;

@@ -169,6 +169,8 @@ class FrameAssembler {
   int count_ = 0;
   std::string bytes_;
   int64_t abandoned_ = 0;
+  bool abandoned_any_ = false;
+  uint64_t last_abandoned_ = 0;
 };
 
 }  // namespace transient::wire
