@@ -45,6 +45,11 @@ __attribute__((always_inline)) inline bool Any(Vm mask) {
   for (int i = 0; i < kLanes; ++i) any |= mask[i];
   return any != 0;
 }
+__attribute__((always_inline)) inline bool All(Vm mask) {
+  int64_t all = -1;
+  for (int i = 0; i < kLanes; ++i) all &= mask[i];
+  return all != 0;
+}
 
 // The instruction sets a kernel is compiled for, best first.
 enum class Level { kX86_64_V4, kX86_64_V3, kBaseline };

@@ -40,6 +40,7 @@ constexpr double kMaxRotation = 0.25;
 
 // Eight candidates at a time (kernels_simd.h).
 using simd::Abs;
+using simd::All;
 using simd::Any;
 using simd::kLanes;
 using simd::Load;
@@ -103,14 +104,14 @@ struct RangeScratch {
   std::vector<int32_t> peak_lane;
   std::vector<double> peak_phase, peak_denominator;
   int peaks = 0;
-  // Per lane: the smallest denominator of its peaks and the first peak's phase.
-  std::array<double, kRangeBlock> smallest, first;
+  // Per lane: the first peak's phase.
+  std::array<double, kRangeBlock> first;
 
   void Reserve(int m, const RangeTables& t) {
     const size_t planes_per_pixel = static_cast<size_t>(1 + 2 * m + 2 * (m + 1));
     planes.resize(planes_per_pixel * kRangeBlock);
-    grid.resize(t.stride);
-    minimum.assign((t.bins + 7) / 8 * 8, 0);
+    minimum.assign((t.bins + 31) / 32 * 32, 0);
+    grid.resize(std::max<size_t>(t.stride, minimum.size() + 2));  // past stride: not minima
     for (auto* v : {&left, &middle, &right, &center_phase, &center_re, &center_im}) {
       v->resize(kBatch + kLanes);
     }
@@ -314,7 +315,10 @@ __attribute__((always_inline)) inline void RefineBatch(const RangeTables& t, con
     Vd vertex = Select(curvature > zero, 0.5 * (left - right) / curvature, zero);
     vertex = Select(vertex < -1.0, Splat(-1.0), Select(vertex > 1.0, Splat(1.0), vertex));
     const Vd x = Select(accept, offset, vertex * h);
-    Store(&s.peak_denominator[s.peaks + c], NormOfP<M>(g, UnitsAt(s, c, x)));
+    // Where accepted, x is the phase `lower` was evaluated at: |p|^2 there is `lower`.
+    Vd denominator = lower;
+    if (!All(accept)) denominator = Select(accept, lower, NormOfP<M>(g, UnitsAt(s, c, x)));
+    Store(&s.peak_denominator[s.peaks + c], denominator);
     Store(&s.peak_phase[s.peaks + c], Load(&s.center_phase[c]) + x);
   }
   // Plain loops in the clones: Clang 15 emits no library template that only they instantiate.
@@ -335,25 +339,48 @@ __attribute__((always_inline)) inline void SearchLane(const RangeTables& t, cons
   }
   const double a0 = b.a0[l];
   double* grid = s.grid.data();
-  const int stride = t.stride;
+  const int stride = t.stride;  // a whole number of vectors, at least bins + 2
   const double* c2 = t.c2.data();
   const double* s2 = t.s2.data();
-  for (int i = 0; i < stride; i += kLanes) {
-    Vd r = Splat(a0);
+  Vd cr[M], ci[M];
+  for (int k = 0; k < M; ++k) {
+    cr[k] = Splat(are[k]);
+    ci[k] = Splat(aim[k]);
+  }
+  // Two vectors at a time: two independent chains of additions.
+  int i = 0;
+  for (; i + 2 * kLanes <= stride; i += 2 * kLanes) {
+    Vd r0 = Splat(a0), r1 = r0;
+#pragma GCC unroll 16
     for (int k = 0; k < M; ++k) {
-      r += are[k] * Load(c2 + k * stride + i) + aim[k] * Load(s2 + k * stride + i);
+      const double* c = c2 + k * stride + i;
+      const double* z = s2 + k * stride + i;
+      r0 += cr[k] * Load(c) + ci[k] * Load(z);
+      r1 += cr[k] * Load(c + kLanes) + ci[k] * Load(z + kLanes);
+    }
+    Store(grid + i, r0);
+    Store(grid + i + kLanes, r1);
+  }
+  for (; i < stride; i += kLanes) {
+    Vd r = Splat(a0);
+#pragma GCC unroll 16
+    for (int k = 0; k < M; ++k) {
+      r += cr[k] * Load(c2 + k * stride + i) + ci[k] * Load(s2 + k * stride + i);
     }
     Store(grid + i, r);
   }
-  // Minima as one byte per bin (a loop the compiler vectorizes), then read eight bins at once.
+  // Minima as one byte per bin (a loop the compiler vectorizes, over whole vectors of 32
+  // bins: the grid has room for them), then read eight bins at once; bytes past bins are 0.
   const int bins = t.bins;
+  const int padded = static_cast<int>(s.minimum.size());
   uint8_t* minimum = s.minimum.data();
 #pragma omp simd
-  for (int n = 0; n < bins; ++n) {
-    minimum[n] = static_cast<uint8_t>((grid[n + 1] < grid[n]) & (grid[n + 1] <= grid[n + 2]));
+  for (int n = 0; n < padded; ++n) {
+    minimum[n] =
+        static_cast<uint8_t>((grid[n + 1] < grid[n]) & (grid[n + 1] <= grid[n + 2]) & (n < bins));
   }
   for (int w = 0; w < bins; w += 8) {
-    uint64_t bits;  // bin w + i is a minimum iff byte i is 1; bytes past bins are 0
+    uint64_t bits;  // bin w + i is a minimum iff byte i is 1
     std::memcpy(&bits, minimum + w, sizeof(bits));
     while (bits != 0) {
       const int n = w + __builtin_ctzll(bits) / 8;
@@ -371,23 +398,30 @@ __attribute__((always_inline)) inline void SearchLane(const RangeTables& t, cons
   }
 }
 
-// Step 4: per lane, the first peak whose density is at least threshold x the highest.
+// Step 4: per lane, the first peak whose density is at least threshold x the highest. The
+// peaks of a lane are consecutive (the lanes are searched in order, the batch keeps it).
 __attribute__((always_inline)) inline void ChoosePeaks(double threshold, RangeScratch& s) {
-  for (int l = 0; l < kRangeBlock; ++l) {
-    s.smallest[l] = std::numeric_limits<double>::infinity();
-    s.first[l] = std::numeric_limits<double>::quiet_NaN();
-  }
-  for (int c = 0; c < s.peaks; ++c) {
-    if (!(s.peak_denominator[c] > 0.0)) continue;  // only underflow: D would be infinite
-    double& smallest = s.smallest[s.peak_lane[c]];
-    smallest = std::min(smallest, s.peak_denominator[c]);
-  }
-  for (int c = 0; c < s.peaks; ++c) {
-    const double d = s.peak_denominator[c];
-    const int l = s.peak_lane[c];
-    if (!(d > 0.0) || !(threshold * d <= s.smallest[l])) continue;
-    const double phase = OrderingPhase(s.peak_phase[c]);
-    if (!(phase >= s.first[l])) s.first[l] = phase;
+  for (int l = 0; l < kRangeBlock; ++l) s.first[l] = std::numeric_limits<double>::quiet_NaN();
+  const int peaks = s.peaks;
+  const int32_t* lane = s.peak_lane.data();
+  const double* denominator = s.peak_denominator.data();
+  const double* phase_of = s.peak_phase.data();
+  for (int c = 0; c < peaks;) {
+    const int l = lane[c];
+    int end = c;
+    double smallest = std::numeric_limits<double>::infinity();
+    for (; end < peaks && lane[end] == l; ++end) {
+      // Not above 0: only underflow, D would be infinite; not a peak (as the reference).
+      if (denominator[end] > 0.0) smallest = std::min(smallest, denominator[end]);
+    }
+    double first = std::numeric_limits<double>::quiet_NaN();
+    for (; c < end; ++c) {
+      const double d = denominator[c];
+      if (!(d > 0.0) || !(threshold * d <= smallest)) continue;
+      const double phase = OrderingPhase(phase_of[c]);
+      if (!(phase >= first)) first = phase;
+    }
+    s.first[l] = first;
   }
 }
 
