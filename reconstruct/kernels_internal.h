@@ -10,6 +10,7 @@
 #include <span>
 
 #include "transient/reconstruct/kernels.h"
+#include "transient/reconstruct/phase_unwrapping.h"
 #include "transient/reconstruct/pisarenko.h"
 #include "transient/reconstruct/reconstructor.h"
 
@@ -28,6 +29,17 @@ void ParallelBlocks(int64_t count, const Body& body, int64_t block = kBlockPixel
     body(b * block, std::min(count, (b + 1) * block));
   }
 }
+
+// UnwrapImage's outputs (phase_unwrapping.h), sized for the image and filled with NaN and 0.
+struct UnwrapOutputs {
+  float* range_m;
+  float* amplitude;
+  float* confidence;
+  uint8_t* flags;
+};
+// UnwrapImage's per-pixel loop for pixels [begin, end), eight at a time (optimized_unwrap.cc).
+void UnwrapPixels(const MomentImage& moments, const UnwrapOptions& options, int64_t begin,
+                  int64_t end, UnwrapOutputs out);
 
 // Sizes `solved` for `moments`, reusing its buffers, with every flag 0; SolvePixels writes
 // every value of its pixels (NaN for invalid ones), so nothing else is initialised here.

@@ -8,6 +8,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "kernels_internal.h"
+#include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/moments.h"
 
 namespace transient {
@@ -115,7 +117,9 @@ UnwrappedPixel UnwrapPixel(std::span<const ComplexF> moments, const UnwrapOption
   size_t top = 0;      // index of the highest harmonic J
   for (size_t i = 0; i < count; ++i) {
     c[i] = std::complex<double>(moments[i].real(), moments[i].imag());
-    total += std::sqrt(std::norm(c[i]));  // floats squared: no overflow, so no hypot
+    // Floats squared in double cannot overflow: no hypot (std::norm is |z|^2 by std::abs, a
+    // hypot, in libstdc++).
+    total += std::sqrt(c[i].real() * c[i].real() + c[i].imag() * c[i].imag());
     if (harmonics[i] > harmonics[top]) top = i;
   }
   UnwrappedPixel out;
@@ -205,6 +209,15 @@ absl::Status UnwrapImage(const MomentImage& moments, const UnwrapOptions& option
   amplitude->assign(n, kNaNf);
   confidence->assign(n, kNaNf);
   flags->assign(n, 0);
+  if (GetKernelOptions().kind == KernelKind::kOptimized) {
+    // Eight pixels at a time, bit for bit the loop below (optimized_unwrap.cc).
+    const internal::UnwrapOutputs out{range_m->data(), amplitude->data(), confidence->data(),
+                                      flags->data()};
+    internal::ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {
+      internal::UnwrapPixels(moments, options, begin, end, out);
+    });
+    return absl::OkStatus();
+  }
   const size_t count = options.harmonics.size();
 #pragma omp parallel for schedule(static) if (pixels > 50000)
   for (int64_t p = 0; p < pixels; ++p) {

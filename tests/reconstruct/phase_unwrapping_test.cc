@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <numbers>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "tests/support/status_matchers.h"
+#include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/moments.h"
 #include "transient/reconstruct/physical_constants.h"
 
@@ -132,6 +134,66 @@ TEST(UnwrapImage, KeepsTheMomentFlagsMarksInvalidPixelsAndChecksTheOrder) {
   EXPECT_THAT(UnwrapImage(low, o, &range, &amplitude, &confidence, &flags),
               StatusIs(absl::StatusCode::kInvalidArgument,
                        HasSubstr("order m = 10. Violated constraint: m >= 15")));
+}
+
+// The image loop takes eight pixels at a time in the optimized kernels (optimized_unwrap.cc):
+// its results must be UnwrapPixel's bit for bit, for every kind of pixel in any lane: single
+// and mixed returns, noise that makes some ambiguous, too little light, no light, NaN
+// moments, invalid pixels; for the Kinect's harmonics, for 1, 2, 3 (Newton's steps then reach
+// the library's rotation) and for one harmonic alone.
+TEST(UnwrapImage, TheOptimizedLoopEqualsUnwrapPixelBitForBit) {
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.03);
+  for (const UnwrapOptions& base :
+       {Kinect(), UnwrapOptions{.base_frequency_hz = 20e6, .harmonics = {1, 2, 3}},
+        UnwrapOptions{.base_frequency_hz = 20e6, .harmonics = {1}}}) {
+    UnwrapOptions o = base;
+    o.min_amplitude = 0.05;
+    const double unambiguous_m = kSpeedOfLight / (2.0 * o.base_frequency_hz);
+    const ImageGeometry geometry{37, 23};  // not a multiple of the eight lanes
+    const int order = *std::max_element(o.harmonics.begin(), o.harmonics.end());
+    MomentImage m(geometry, order);
+    m.valid.assign(geometry.pixel_count(), 1);
+    for (int64_t p = 0; p < geometry.pixel_count(); ++p) {
+      std::vector<std::pair<double, double>> returns = {{uniform(rng) * unambiguous_m, 1.0}};
+      if (p % 3 == 0) returns.push_back({uniform(rng) * unambiguous_m, uniform(rng)});
+      if (p % 11 == 0) returns = {{1.0, 0.01}};  // below min_amplitude
+      std::vector<ComplexF> c = Moments(o, returns);
+      for (size_t i = 0; i < c.size(); ++i) {
+        c[i] += ComplexF(static_cast<float>(noise(rng)), static_cast<float>(noise(rng)));
+        if (p % 13 == 0) c[i] = 0.0f;  // no light
+        m.real_plane(o.harmonics[i])[p] = c[i].real();
+        m.imag_plane(o.harmonics[i])[p] = c[i].imag();
+      }
+      if (p % 17 == 0) m.real_plane(o.harmonics[0])[p] = std::nanf("");
+      if (p % 19 == 0) m.valid[p] = 0;
+    }
+    std::vector<float> range[2], amplitude[2], confidence[2];
+    std::vector<uint8_t> flags[2];
+    for (int kind = 0; kind < 2; ++kind) {
+      SetKernelOptions({.kind = kind == 0 ? KernelKind::kReference : KernelKind::kOptimized});
+      ASSERT_THAT(
+          UnwrapImage(m, o, &range[kind], &amplitude[kind], &confidence[kind], &flags[kind]),
+          IsOk());
+    }
+    SetKernelOptions({});
+    int ranged = 0, ambiguous = 0;
+    auto same = [](float a, float b) { return a == b || (std::isnan(a) && std::isnan(b)); };
+    for (int64_t p = 0; p < geometry.pixel_count(); ++p) {
+      EXPECT_EQ(flags[1][p], flags[0][p]) << "pixel " << p;
+      EXPECT_TRUE(same(range[1][p], range[0][p]))
+          << "pixel " << p << ": " << range[1][p] << " against " << range[0][p];
+      EXPECT_TRUE(same(amplitude[1][p], amplitude[0][p])) << "pixel " << p;
+      EXPECT_TRUE(same(confidence[1][p], confidence[0][p])) << "pixel " << p;
+      ranged += !std::isnan(range[0][p]);
+      ambiguous += (flags[0][p] & kFlagAmbiguous) != 0;
+    }
+    if (o.harmonics.size() > 1) {
+      EXPECT_GT(ranged, geometry.pixel_count() / 2) << "most pixels should get a range";
+      EXPECT_GT(ambiguous, 0) << "the frame should have ambiguous pixels";
+    }
+  }
 }
 
 TEST(UnwrapOptions, ValidateNamesFieldValueAndRule) {
