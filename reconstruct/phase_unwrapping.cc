@@ -218,8 +218,8 @@ absl::Status UnwrapImage(const MomentImage& moments, const UnwrapOptions& option
     });
     return absl::OkStatus();
   }
+  // The reference: UnwrapPixel pixel by pixel on one thread.
   const size_t count = options.harmonics.size();
-#pragma omp parallel for schedule(static) if (pixels > 50000)
   for (int64_t p = 0; p < pixels; ++p) {
     const size_t q = static_cast<size_t>(p);
     uint8_t f = moments.flags.empty() ? 0 : (moments.flags[q] & kMomentImageFlags);

@@ -102,9 +102,12 @@ void BM_Pisarenko(benchmark::State& state) {
 }
 BENCHMARK(BM_Pisarenko)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
-// Three-frequency phase unwrapping at the Kinect v2's size and harmonics (10, 2, 15 of 8 MHz),
-// on the machine's threads (UnwrapImage's own OpenMP loop): the depth cameras' range.
+// Three-frequency phase unwrapping at the Kinect v2's size and harmonics (10, 2, 15 of 8 MHz):
+// the depth cameras' range. Arguments: kernel kind (0: UnwrapPixel per pixel on one thread),
+// threads.
 void BM_UnwrapKinect(benchmark::State& state) {
+  SetKernelOptions({.kind = state.range(0) == 0 ? KernelKind::kReference : KernelKind::kOptimized,
+                    .threads = static_cast<int>(state.range(1))});
   const MomentImage image = tools::MakeBenchFrame({512, 424}, 15);
   UnwrapOptions options;
   options.base_frequency_hz = 8e6;
@@ -119,7 +122,13 @@ void BM_UnwrapKinect(benchmark::State& state) {
       benchmark::Counter(static_cast<double>(state.iterations() * image.geometry.pixel_count()),
                          benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_UnwrapKinect)->UseRealTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_UnwrapKinect)
+    ->ArgNames({"optimized", "threads"})
+    ->Args({0, 1})
+    ->Args({1, 1})
+    ->Args({1, 2})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace transient

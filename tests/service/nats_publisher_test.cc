@@ -514,8 +514,10 @@ TEST(NatsCluster, KillingTheStreamLeaderWhilePublishingLosesNoAcknowledgedFrame)
   ASSERT_TRUE(WaitUntil([&] { return (*publisher)->Stats().messages_acknowledged >= 10; },
                         absl::Seconds(30)));
 
+  wire::NatsConnectOptions admin_options;
+  admin_options.servers = urls;
   absl::StatusOr<std::unique_ptr<wire::NatsConnection>> admin =
-      wire::NatsConnection::Open({.servers = urls}, /*background=*/false);
+      wire::NatsConnection::Open(admin_options, /*background=*/false);
   ASSERT_THAT(admin.status(), IsOk());
   const std::optional<StreamState> before = GetStreamState(**admin, "rig");
   ASSERT_TRUE(before.has_value());

@@ -11,8 +11,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "transient/reconstruct/kernels.h"
 #include "tools/transient/common/json_text.h"
+#include "transient/reconstruct/kernels.h"
+#include "transient/reconstruct/phase_unwrapping.h"
 
 namespace transient::tools {
 namespace {
@@ -126,6 +127,20 @@ absl::StatusOr<std::vector<BenchRow>> RunBench(const BenchArgs& args,
     Measure(
         args, "cumulative (64 phases)", 3, pmd, "evaluations/s", out.size(),
         [&] { CumulativeSlices(solved, phases, out); }, &rows, progress);
+  }
+  {
+    // A depth camera's range: three-frequency phase unwrapping at the Kinect v2's size and
+    // harmonics (2, 10, 15 of 8 MHz; "m" is the highest).
+    const ImageGeometry kinect{512, 424};
+    const MomentImage image = MakeBenchFrame(kinect, 15);
+    const UnwrapOptions options{.base_frequency_hz = 8e6, .harmonics = {10, 2, 15}};
+    std::vector<float> range, amplitude, confidence;
+    std::vector<uint8_t> flags;
+    Measure(
+        args, "phase unwrapping (Kinect v2)", 15, kinect, "pixels/s",
+        static_cast<double>(kinect.pixel_count()),
+        [&] { (void)UnwrapImage(image, options, &range, &amplitude, &confidence, &flags); }, &rows,
+        progress);
   }
   // The whole per-frame job: moments in; range, amplitude and 64 density slices out.
   for (auto [geometry, m] : {std::pair{pmd, 3}, std::pair{vga, 4}}) {
