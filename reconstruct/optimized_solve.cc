@@ -10,6 +10,7 @@
 //   estimated) take the reference's per-pixel path, which runs the dense eigen-solve.
 #include <cassert>
 #include <cstdint>
+#include <cstring>
 
 #include "kernels_internal.h"
 #include "kernels_simd.h"
@@ -20,10 +21,20 @@ namespace {
 
 using simd::Finite;
 using simd::kLanes;
+using simd::Select;
 using simd::Splat;
+using simd::Store;
 using simd::True;
 using simd::Vd;
 using simd::Vm;
+
+// Eight floats from p, widened to double.
+__attribute__((always_inline)) inline Vd LoadFloats(const float* p) {
+  using Vf = float __attribute__((vector_size(kLanes * sizeof(float))));
+  Vf f;
+  std::memcpy(&f, p, sizeof(f));
+  return __builtin_convertvector(f, Vd);
+}
 
 // Levinson() of levinson.cc in every lane: q = C(c)^{-1} e_0 and the lanes where every
 // reflection coefficient has |d| < 1 and q_0 is finite (Levinson() returns true).
@@ -70,12 +81,8 @@ __attribute__((always_inline)) inline void SolveLanes(const MomentImage& moments
   const int64_t pixels = moments.geometry.pixel_count();
   Vd cr[M + 1], ci[M + 1];
   for (int j = 0; j <= M; ++j) {
-    const float* re = moments.real_plane(j) + p;
-    const float* im = moments.imag_plane(j) + p;
-    for (int i = 0; i < kLanes; ++i) {
-      cr[j][i] = re[i];
-      ci[j][i] = j == 0 ? 0.0 : im[i];
-    }
+    cr[j] = LoadFloats(moments.real_plane(j) + p);
+    ci[j] = j == 0 ? Splat(0.0) : LoadFloats(moments.imag_plane(j) + p);
   }
   Vm valid = True();
   if (moments.valid.size() != 0) {  // not empty(): Clang 15 would not emit its iterator here
@@ -89,6 +96,17 @@ __attribute__((always_inline)) inline void SolveLanes(const MomentImage& moments
   for (int j = 1; j <= M; ++j) shifted[j] = cr[j];
   const Vm clear = Levinson<M>(shifted, ci, qr, qi);
   const Vm solved_ok = Levinson<M>(cr, ci, qr, qi);
+  // Whole vectors into the planes (at VGA they are far beyond the caches: one store a line,
+  // not eight), NaN where invalid; the lanes that need biasing are then overwritten below.
+  const Vm ok = valid & solved_ok;
+  const Vd nan = Splat(kNaN);
+  for (int j = 0; j <= M; ++j) {
+    const int64_t at = j * pixels + p;
+    Store(solved->c_real.data() + at, Select(ok, cr[j], nan));
+    Store(solved->c_imag.data() + at, Select(ok, ci[j], nan));
+    Store(solved->q_real.data() + at, Select(ok, qr[j], nan));
+    Store(solved->q_imag.data() + at, Select(ok, qi[j], nan));
+  }
   for (int i = 0; i < kLanes; ++i) {
     const int64_t pixel = p + i;
     if (valid[i] != 0 && clear[i] == 0) {
@@ -97,15 +115,7 @@ __attribute__((always_inline)) inline void SolveLanes(const MomentImage& moments
                             solved);
       continue;
     }
-    const bool ok = valid[i] != 0 && solved_ok[i] != 0;
-    if (!ok) solved->flags[pixel] |= kFlagInvalidInput;
-    for (int j = 0; j <= M; ++j) {
-      const int64_t at = j * pixels + pixel;
-      solved->c_real[at] = ok ? cr[j][i] : kNaN;
-      solved->c_imag[at] = ok ? ci[j][i] : kNaN;
-      solved->q_real[at] = ok ? qr[j][i] : kNaN;
-      solved->q_imag[at] = ok ? qi[j][i] : kNaN;
-    }
+    if (ok[i] == 0) solved->flags[pixel] |= kFlagInvalidInput;
   }
 }
 
