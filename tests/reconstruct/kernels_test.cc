@@ -222,7 +222,7 @@ TEST_P(Kernels, RangeWithinATenthOfAMillimetreWithIdenticalFlags) {
   // Automatic grids (16 (m+1) phases), one that is no multiple of a vector, and one coarse
   // enough for the per-pixel path of the optimized kernel.
   for (const auto& [threshold, bins] :
-       {std::pair{0.0, 0}, {0.1, 0}, {0.5, 0}, {0.1, 101}, {0.1, 20}}) {
+       {std::pair{0.0, 0}, {0.1, 0}, {0.5, 0}, {1.0, 0}, {0.1, 101}, {0.1, 20}}) {
     RangeOptions options;
     options.threshold = threshold;
     options.search_bins = bins;
