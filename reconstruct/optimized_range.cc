@@ -443,7 +443,7 @@ __attribute__((always_inline)) inline void SearchLane(const RangeTables& t, cons
     }
   }
   s.minima = start + c;
-  s.lowest[l] = start + lowest;
+  s.lowest[l] = c > 0 ? start + lowest : -1;  // -1: no minimum, a flat density
 }
 
 // A lower bound of |p|^2 on the two bins around grid minimum i, wherever RefineMinimum's phase

@@ -30,7 +30,7 @@ constexpr double kPisarenkoMassTolerance = 1e-5;   // relative to c_0
 constexpr ImageGeometry kGeometry{37, 23};     // not a multiple of any block or vector size
 
 // Pixels with 1..m+1 returns, a uniform part from 0 to 0.2, noise that makes some of them
-// need biasing, and a few invalid ones (NaN, no light, masked).
+// need biasing, a few invalid ones (NaN, no light, masked) and one of uniform light alone.
 MomentImage RandomFrame(int m, uint64_t seed) {
   std::mt19937_64 rng(seed);
   MomentImage image(kGeometry, m);
@@ -51,6 +51,10 @@ MomentImage RandomFrame(int m, uint64_t seed) {
   image.real_plane(1)[3] = std::nanf("");
   image.real_plane(0)[7] = 0.0f;
   image.valid[11] = 0;
+  for (int j = 1; j <= m; ++j) {  // uniform light alone: a flat density, no peak
+    image.real_plane(j)[13] = 0.0f;
+    image.imag_plane(j)[13] = 0.0f;
+  }
   return image;
 }
 
