@@ -136,8 +136,7 @@ __attribute__((always_inline)) inline void UnwrapBody(const MomentImage& moments
       // by UnwrapPixel itself.
       double total = 0.0;
       for (size_t i = 0; i < count; ++i) {
-        const double re = pixel[i].real(), im = pixel[i].imag();
-        total += std::sqrt(re * re + im * im);
+        total += std::sqrt(std::norm(std::complex<double>(pixel[i].real(), pixel[i].imag())));
       }
       if (!std::isfinite(total) || total == 0.0 ||
           total / static_cast<double>(count) < options.min_amplitude) {
@@ -162,6 +161,7 @@ __attribute__((always_inline)) inline void UnwrapBody(const MomentImage& moments
     for (int l = 0; l < lanes; ++l) any |= use[l];
     if (!any) continue;
 
+    // sum_i sqrt(std::norm(c_i)), std::norm being re^2 + im^2 in libstdc++.
     Vd total = Splat(0.0);
     for (size_t i = 0; i < count; ++i) {
       const Vd squared = c[i].re * c[i].re + c[i].im * c[i].im;

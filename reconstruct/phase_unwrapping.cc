@@ -117,9 +117,7 @@ UnwrappedPixel UnwrapPixel(std::span<const ComplexF> moments, const UnwrapOption
   size_t top = 0;      // index of the highest harmonic J
   for (size_t i = 0; i < count; ++i) {
     c[i] = std::complex<double>(moments[i].real(), moments[i].imag());
-    // Floats squared in double cannot overflow: no hypot (std::norm is |z|^2 by std::abs, a
-    // hypot, in libstdc++).
-    total += std::sqrt(c[i].real() * c[i].real() + c[i].imag() * c[i].imag());
+    total += std::sqrt(std::norm(c[i]));  // floats squared: no overflow, so no hypot
     if (harmonics[i] > harmonics[top]) top = i;
   }
   UnwrappedPixel out;
