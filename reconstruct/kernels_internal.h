@@ -6,6 +6,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <complex>
 #include <cstdint>
 #include <span>
 
@@ -28,6 +29,60 @@ void ParallelBlocks(int64_t count, const Body& body, int64_t block = kBlockPixel
   for (int64_t b = 0; b < blocks; ++b) {
     body(b * block, std::min(count, (b + 1) * block));
   }
+}
+
+// MeseDenominatorSeries (mese.h) across `count` pixels, one SIMD lane each, from planes x_j
+// (x_re + j * in_stride, x_im likewise; j = 0..m): a0 = sum_j |x_j|^2 and, for k = 1..m,
+// kScale Re a_k and -kScale Im a_k with a_k = sum_j conj(x_{j+k}) x_j, into planes at
+// re + (k - 1) * out_stride, im likewise. The optimized density takes kScale = 2 (its cosine
+// series' alpha_k and beta_k), the range kernel 1, from p = conj(q) (then -Im a_k(p) =
+// Im a_k(q)). Inlined into each kernel's instruction-set variants.
+template <int kScale>
+__attribute__((always_inline)) inline void DenominatorSeriesPlanes(
+    const double* x_re, const double* x_im, int64_t in_stride, int m, int64_t count, double* a0,
+    double* re, double* im, int64_t out_stride) {
+#pragma omp simd
+  for (int64_t l = 0; l < count; ++l) a0[l] = 0.0;
+  for (int j = 0; j <= m; ++j) {
+    const double* yr = x_re + j * in_stride;
+    const double* yi = x_im + j * in_stride;
+#pragma omp simd
+    for (int64_t l = 0; l < count; ++l) a0[l] += yr[l] * yr[l] + yi[l] * yi[l];
+  }
+  for (int k = 1; k <= m; ++k) {
+    double* sum_re = re + (k - 1) * out_stride;
+    double* sum_im = im + (k - 1) * out_stride;
+#pragma omp simd
+    for (int64_t l = 0; l < count; ++l) sum_re[l] = sum_im[l] = 0.0;
+    for (int j = 0; j + k <= m; ++j) {
+      const double* xr = x_re + (j + k) * in_stride;
+      const double* xi = x_im + (j + k) * in_stride;
+      const double* yr = x_re + j * in_stride;
+      const double* yi = x_im + j * in_stride;
+#pragma omp simd
+      for (int64_t l = 0; l < count; ++l) {
+        if constexpr (kScale == 1) {
+          sum_re[l] += xr[l] * yr[l] + xi[l] * yi[l];
+          sum_im[l] += xi[l] * yr[l] - xr[l] * yi[l];
+        } else {
+          sum_re[l] += kScale * (xr[l] * yr[l] + xi[l] * yi[l]);
+          sum_im[l] += kScale * (xi[l] * yr[l] - xr[l] * yi[l]);
+        }
+      }
+    }
+  }
+}
+
+// x^n for 0 <= n <= kMaxOrder by binary powering: at most 10 products (~10 ulp), where
+// std::polar(1, n * angle) would cost a sine and cosine per harmonic. UnwrapPixel's, and the
+// optimized unwrapping's where it must compute exactly the same values (its lanes mirror it).
+inline std::complex<double> Power(std::complex<double> x, int n) {
+  std::complex<double> result = 1.0;
+  for (; n > 0; n >>= 1) {
+    if (n & 1) result *= x;
+    x *= x;
+  }
+  return result;
 }
 
 // UnwrapImage's outputs (phase_unwrapping.h), sized for the image and filled with NaN and 0.

@@ -51,38 +51,14 @@ void MakeSeries(const SolvedImage& solved, SeriesPlanes& s) {
   s.alpha.resize(m * s.pixels);
   s.beta.resize(m * s.pixels);
   s.scale.resize(s.pixels);
-  // MeseDenominatorSeries across pixels, one SIMD lane per pixel, from the planes of q:
-  // a_k = sum_j conj(q_{j+k}) q_j, alpha_k = 2 Re a_k, beta_k = -2 Im a_k.
+  // alpha_k = 2 Re a_k, beta_k = -2 Im a_k (MeseDenominatorSeries) across pixels.
   const int64_t n = s.pixels;
   internal::ParallelBlocks(n, [&](int64_t begin, int64_t end) {
     const double* qr = solved.q_real.data();
-    const double* qi = solved.q_imag.data();
+    internal::DenominatorSeriesPlanes<2>(qr + begin, solved.q_imag.data() + begin, n, m,
+                                         end - begin, s.a0.data() + begin, s.alpha.data() + begin,
+                                         s.beta.data() + begin, n);
     double* a0 = s.a0.data();
-#pragma omp simd
-    for (int64_t p = begin; p < end; ++p) a0[p] = 0.0;
-    for (int j = 0; j <= m; ++j) {
-#pragma omp simd
-      for (int64_t p = begin; p < end; ++p) {
-        a0[p] += qr[j * n + p] * qr[j * n + p] + qi[j * n + p] * qi[j * n + p];
-      }
-    }
-    for (int k = 1; k <= m; ++k) {
-      double* alpha = s.alpha.data() + (k - 1) * n;
-      double* beta = s.beta.data() + (k - 1) * n;
-#pragma omp simd
-      for (int64_t p = begin; p < end; ++p) alpha[p] = beta[p] = 0.0;
-      for (int j = 0; j + k <= m; ++j) {
-        const double* xr = qr + (j + k) * n;
-        const double* xi = qi + (j + k) * n;
-        const double* yr = qr + j * n;
-        const double* yi = qi + j * n;
-#pragma omp simd
-        for (int64_t p = begin; p < end; ++p) {
-          alpha[p] += 2.0 * (xr[p] * yr[p] + xi[p] * yi[p]);
-          beta[p] -= 2.0 * (xr[p] * yi[p] - xi[p] * yr[p]);
-        }
-      }
-    }
     for (int64_t p = begin; p < end; ++p) {
       if (!solved.valid(p)) {
         a0[p] = std::numeric_limits<double>::quiet_NaN();
@@ -312,6 +288,14 @@ __attribute__((always_inline)) inline void DensityOrbitsFixed(const SeriesPlanes
   if (stream) _mm_sfence();
 }
 
+// The orders the density kernels are compiled for, every one of 1..kMaxOrder: CASE(M) for each.
+#define TRANSIENT_DENSITY_ORDERS(CASE)                                                         \
+  CASE(1)                                                                                      \
+  CASE(2)                                                                                      \
+  CASE(3)                                                                                      \
+  CASE(4) CASE(5) CASE(6) CASE(7) CASE(8) CASE(9) CASE(10) CASE(11) CASE(12) CASE(13) CASE(14) \
+      CASE(15) CASE(16)
+
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void DensityOrbits(
     const SeriesPlanes& s, const PhaseOrbits& orbits, int64_t begin, int64_t end, bool stream,
     float* out) {
@@ -319,22 +303,7 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
 #define TRANSIENT_DENSITY_CASE(M) \
   case M:                         \
     return DensityOrbitsFixed<M>(s, orbits, begin, end, stream, out);
-    TRANSIENT_DENSITY_CASE(1)
-    TRANSIENT_DENSITY_CASE(2)
-    TRANSIENT_DENSITY_CASE(3)
-    TRANSIENT_DENSITY_CASE(4)
-    TRANSIENT_DENSITY_CASE(5)
-    TRANSIENT_DENSITY_CASE(6)
-    TRANSIENT_DENSITY_CASE(7)
-    TRANSIENT_DENSITY_CASE(8)
-    TRANSIENT_DENSITY_CASE(9)
-    TRANSIENT_DENSITY_CASE(10)
-    TRANSIENT_DENSITY_CASE(11)
-    TRANSIENT_DENSITY_CASE(12)
-    TRANSIENT_DENSITY_CASE(13)
-    TRANSIENT_DENSITY_CASE(14)
-    TRANSIENT_DENSITY_CASE(15)
-    TRANSIENT_DENSITY_CASE(16)
+    TRANSIENT_DENSITY_ORDERS(TRANSIENT_DENSITY_CASE)
 #undef TRANSIENT_DENSITY_CASE
   }
   assert(false && "order outside 1..kMaxOrder");
@@ -349,22 +318,7 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
 #define TRANSIENT_DENSITY_CASE(M) \
   case M:                         \
     return DensityBlockFixed<M>(s, cosines, sines, rows, phases, begin, end, out);
-    TRANSIENT_DENSITY_CASE(1)
-    TRANSIENT_DENSITY_CASE(2)
-    TRANSIENT_DENSITY_CASE(3)
-    TRANSIENT_DENSITY_CASE(4)
-    TRANSIENT_DENSITY_CASE(5)
-    TRANSIENT_DENSITY_CASE(6)
-    TRANSIENT_DENSITY_CASE(7)
-    TRANSIENT_DENSITY_CASE(8)
-    TRANSIENT_DENSITY_CASE(9)
-    TRANSIENT_DENSITY_CASE(10)
-    TRANSIENT_DENSITY_CASE(11)
-    TRANSIENT_DENSITY_CASE(12)
-    TRANSIENT_DENSITY_CASE(13)
-    TRANSIENT_DENSITY_CASE(14)
-    TRANSIENT_DENSITY_CASE(15)
-    TRANSIENT_DENSITY_CASE(16)
+    TRANSIENT_DENSITY_ORDERS(TRANSIENT_DENSITY_CASE)
 #undef TRANSIENT_DENSITY_CASE
   }
   assert(false && "order outside 1..kMaxOrder");

@@ -195,30 +195,9 @@ __attribute__((always_inline)) inline void LoadBlock(const SolvedImage& solved, 
       pi[l] = l < count ? -qi[l] : 0.0;
     }
   }
-  // a_0 = sum_j |q_j|^2; a_k = sum_j conj(q_{j+k}) q_j = sum_j p_{j+k} conj(p_j).
-  for (int l = 0; l < kRangeBlock; ++l) b.a0[l] = 0.0;
-  for (int j = 0; j <= M; ++j) {
-    const double* yr = b.pr + j * kRangeBlock;
-    const double* yi = b.pi + j * kRangeBlock;
-#pragma omp simd
-    for (int l = 0; l < kRangeBlock; ++l) b.a0[l] += yr[l] * yr[l] + yi[l] * yi[l];
-  }
-  for (int k = 1; k <= M; ++k) {
-    double* re = b.ar + (k - 1) * kRangeBlock;
-    double* im = b.ai + (k - 1) * kRangeBlock;
-    for (int l = 0; l < kRangeBlock; ++l) re[l] = im[l] = 0.0;
-    for (int j = 0; j + k <= M; ++j) {
-      const double* xr = b.pr + (j + k) * kRangeBlock;
-      const double* xi = b.pi + (j + k) * kRangeBlock;
-      const double* yr = b.pr + j * kRangeBlock;
-      const double* yi = b.pi + j * kRangeBlock;
-#pragma omp simd
-      for (int l = 0; l < kRangeBlock; ++l) {
-        re[l] += xr[l] * yr[l] + xi[l] * yi[l];
-        im[l] += xi[l] * yr[l] - xr[l] * yi[l];
-      }
-    }
-  }
+  // a_0 = sum_j |q_j|^2; a_k = sum_j conj(q_{j+k}) q_j = conj(sum_j conj(p_{j+k}) p_j).
+  internal::DenominatorSeriesPlanes<1>(b.pr, b.pi, kRangeBlock, M, kRangeBlock, b.a0, b.ar, b.ai,
+                                       kRangeBlock);
   const uint8_t* flags = solved.flags.data() + begin;
   for (int l = 0; l < kRangeBlock; ++l) {
     if (l >= count || (flags[l] & kFlagInvalidInput) != 0) {

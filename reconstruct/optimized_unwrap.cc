@@ -35,22 +35,12 @@ __attribute__((always_inline)) inline Cv Multiply(Cv a, Cv b) {
   return {a.re * b.re - a.im * b.im, a.re * b.im + a.im * b.re};
 }
 
-// Power() of phase_unwrapping.cc, lane by lane: the same products in the same order.
+// Power() (kernels_internal.h), lane by lane: the same products in the same order.
 __attribute__((always_inline)) inline Cv PowerV(Cv x, int n) {
   Cv result{Splat(1.0), Splat(0.0)};
   for (; n > 0; n >>= 1) {
     if (n & 1) result = Multiply(result, x);
     x = Multiply(x, x);
-  }
-  return result;
-}
-
-// std::complex<double> products as UnwrapPixel's (std::complex's operator*= on finite values).
-std::complex<double> PowerScalar(std::complex<double> x, int n) {
-  std::complex<double> result = 1.0;
-  for (; n > 0; n >>= 1) {
-    if (n & 1) result *= x;
-    x *= x;
   }
   return result;
 }
@@ -106,11 +96,11 @@ __attribute__((always_inline)) inline void UnwrapBody(const MomentImage& moments
   // them.
   Cv step[kMaxOrder];
   for (size_t i = 0; i < count; ++i) {
-    const std::complex<double> s = PowerScalar(spacing, harmonics[i]);
+    const std::complex<double> s = Power(spacing, harmonics[i]);
     step[i] = {Splat(s.real()), Splat(s.imag())};
   }
   std::complex<double> spacing_power[kMaxOrder + 1] = {};
-  for (int n = 0; n < highest; ++n) spacing_power[n] = PowerScalar(spacing, n);
+  for (int n = 0; n < highest; ++n) spacing_power[n] = Power(spacing, n);
   const double max_step = 0.25 * kTwoPi / highest;
   const double infinity = std::numeric_limits<double>::infinity();
 

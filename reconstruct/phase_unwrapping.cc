@@ -22,16 +22,7 @@ struct Score {
   double value, slope, curvature;
 };
 
-// x^n for 0 <= n <= kMaxOrder by binary powering: at most 10 products (~10 ulp), where
-// std::polar(1, n * angle) would cost a sine and cosine per harmonic.
-std::complex<double> Power(std::complex<double> x, int n) {
-  std::complex<double> result = 1.0;
-  for (; n > 0; n >>= 1) {
-    if (n & 1) result *= x;
-    x *= x;
-  }
-  return result;
-}
+using internal::Power;
 
 // S and its derivatives at the phase theta given as unit = e^{-i theta}.
 Score Evaluate(std::span<const std::complex<double>> c, std::span<const int> harmonics,
