@@ -124,11 +124,15 @@ constexpr double kSamePhase = 1e-12;
 void MakeOrbits(std::span<const double> phases, int m, PhaseOrbits* orbits) {
   const int64_t count = static_cast<int64_t>(phases.size());
   // Phases wrapped into [0, 2 pi), sorted, to find each phase's partners.
-  std::vector<std::pair<double, int64_t>> sorted(count);
+  // (Finite phases only: a NaN would break the sort's ordering; NaN and infinite phases are
+  // computed one by one, into NaN densities as the reference's.)
+  std::vector<std::pair<double, int64_t>> sorted;
+  sorted.reserve(count);
   for (int64_t n = 0; n < count; ++n) {
+    if (!std::isfinite(phases[n])) continue;
     double w = std::fmod(phases[n], kTwoPi);
     if (w < 0.0) w += kTwoPi;
-    sorted[n] = {w, n};
+    sorted.push_back({w, n});
   }
   std::sort(sorted.begin(), sorted.end());
   std::vector<bool> used(count, false);
@@ -167,7 +171,7 @@ void MakeOrbits(std::span<const double> phases, int m, PhaseOrbits* orbits) {
     used[n] = true;
     const double phi = phases[n];
     std::array<int64_t, 3> partner = {-1, -1, -1};
-    bool all = true;
+    bool all = std::isfinite(phi);
     for (int j = 0; j < 3 && all; ++j) {
       partner[j] = find(j == 0 ? -phi : j == 1 ? std::numbers::pi + phi : std::numbers::pi - phi);
       if (partner[j] < 0) {

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <span>
@@ -131,6 +132,8 @@ TEST_P(Kernels, DensityMeetsTheContractForAnyPhases) {
   for (int n = 0; n < 10; ++n) mixed.push_back(0.1 + n);  // partners across the wrap
   mixed.insert(mixed.end(), {-0.5, kTwoPi + 0.5, std::numbers::pi - 0.5, std::numbers::pi + 0.5});
   mixed.push_back(mixed[5]);  // a phase twice
+  // Not phases at all: NaN densities, as the reference's, and the others unharmed.
+  mixed.insert(mixed.end(), {std::nan(""), std::numeric_limits<double>::infinity()});
   const std::vector<std::pair<const char*, std::vector<double>>> cases = {
       {"uniform 2500 (streamed)", UniformPhases(2500)},
       {"uniform 7", UniformPhases(7)},
