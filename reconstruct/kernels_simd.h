@@ -36,6 +36,12 @@ __attribute__((always_inline)) inline Vd Select(Vm mask, Vd yes, Vd no) {
 __attribute__((always_inline)) inline Vd Abs(Vd x) {
   return reinterpret_cast<Vd>(reinterpret_cast<Vm>(x) & (Vm{} + 0x7fffffffffffffff));
 }
+// The square root of every lane (one vsqrtpd where the instruction set has it).
+__attribute__((always_inline)) inline Vd Sqrt(Vd x) {
+  Vd root;
+  for (int i = 0; i < kLanes; ++i) root[i] = __builtin_sqrt(x[i]);
+  return root;
+}
 // Finite lanes (not NaN, not infinite).
 __attribute__((always_inline)) inline Vm Finite(Vd x) {
   return Abs(x) <= std::numeric_limits<double>::max();

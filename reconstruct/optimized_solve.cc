@@ -14,6 +14,7 @@
 
 #include "kernels_internal.h"
 #include "kernels_simd.h"
+#include "levinson_lanes.h"
 #include "transient/reconstruct/kernels.h"
 
 namespace transient::optimized {
@@ -34,43 +35,6 @@ __attribute__((always_inline)) inline Vd LoadFloats(const float* p) {
   Vf f;
   std::memcpy(&f, p, sizeof(f));
   return __builtin_convertvector(f, Vd);
-}
-
-// Levinson() of levinson.cc in every lane: q = C(c)^{-1} e_0 and the lanes where every
-// reflection coefficient has |d| < 1 and q_0 is finite (Levinson() returns true).
-template <int M>
-__attribute__((always_inline)) inline Vm Levinson(const Vd* cr, const Vd* ci, Vd* qr, Vd* qi) {
-  const Vd zero = Splat(0.0), one = Splat(1.0);
-  Vm ok = (cr[0] > zero) & Finite(cr[0]);
-  qr[0] = one / cr[0];
-  qi[0] = zero;
-  for (int l = 1; l <= M; ++l) {
-    Vd dr = zero, di = zero;  // d = sum_k q_k c_{l-k}
-    for (int k = 0; k < l; ++k) {
-      dr = dr + (qr[k] * cr[l - k] - qi[k] * ci[l - k]);
-      di = di + (qr[k] * ci[l - k] + qi[k] * cr[l - k]);
-    }
-    const Vd norm = dr * dr + di * di;
-    ok &= norm < one;  // also false for NaN
-    const Vd scale = one / (one - norm);
-    // q_k := scale (q_k - d conj(q_{l-k})) for k = 0..l, with q_l = 0 and conj(q_l) taken as 0
-    // for k = 0 (the reversed vector of levinson.cc), from the old q: reverse order in pairs.
-    Vd nr[M + 1], ni[M + 1];
-    for (int k = 0; k <= l; ++k) {
-      const Vd rr = k == 0 ? zero : qr[l - k];
-      const Vd ri = k == 0 ? zero : -qi[l - k];
-      const Vd ar = k < l ? qr[k] : zero;
-      const Vd ai = k < l ? qi[k] : zero;
-      nr[k] = scale * (ar - (dr * rr - di * ri));
-      ni[k] = scale * (ai - (dr * ri + di * rr));
-    }
-    for (int k = 0; k <= l; ++k) {
-      qr[k] = nr[k];
-      qi[k] = ni[k];
-    }
-  }
-  qi[0] = zero;
-  return ok & Finite(qr[0]);
 }
 
 // Pixels [p, p + kLanes) of a kMeasured solve.
@@ -94,8 +58,8 @@ __attribute__((always_inline)) inline void SolveLanes(const MomentImage& moments
   Vd shifted[M + 1], qr[M + 1], qi[M + 1];
   shifted[0] = cr[0] * (1.0 - options.bias_epsilon);
   for (int j = 1; j <= M; ++j) shifted[j] = cr[j];
-  const Vm clear = Levinson<M>(shifted, ci, qr, qi);
-  const Vm solved_ok = Levinson<M>(cr, ci, qr, qi);
+  const Vm clear = simd::LevinsonLanes<M>(shifted[0], shifted, ci, qr, qi);
+  const Vm solved_ok = simd::LevinsonLanes<M>(cr[0], cr, ci, qr, qi);
   // Whole vectors into the planes (at VGA they are far beyond the caches: one store a line,
   // not eight), NaN where invalid; the lanes that need biasing are then overwritten below.
   const Vm ok = valid & solved_ok;

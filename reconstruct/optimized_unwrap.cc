@@ -155,9 +155,7 @@ __attribute__((always_inline)) inline void UnwrapBody(const MomentImage& moments
     Vd total = Splat(0.0);
     for (size_t i = 0; i < count; ++i) {
       const Vd squared = c[i].re * c[i].re + c[i].im * c[i].im;
-      Vd magnitude = Splat(0.0);
-      for (int l = 0; l < kLanes; ++l) magnitude[l] = std::sqrt(squared[l]);  // vsqrtpd
-      total += magnitude;
+      total += simd::Sqrt(squared);
     }
     // theta_0 = arg(c_J) / J and e^{-i theta_0}, per lane.
     Vd theta0 = Splat(0.0);
