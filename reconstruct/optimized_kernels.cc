@@ -335,7 +335,7 @@ PisarenkoImage EstimatePisarenko(const SolvedImage& solved) {
   if (solved.order < 1) return result;
   const PisarenkoSearchGrid grid(solved.order);
   internal::ParallelBlocks(solved.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
-    internal::PisarenkoPixels(solved, begin, end, &result, &grid);
+    (void)internal::PisarenkoBlock(solved, grid, begin, end, &result);
   });
   return result;
 }

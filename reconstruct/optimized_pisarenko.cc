@@ -38,10 +38,15 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
+#include "kernels_internal.h"
+#include "kernels_simd.h"
+#include "levinson_lanes.h"
 #include "transient/reconstruct/levinson.h"
 #include "transient/reconstruct/pisarenko.h"
+#include "transient/reconstruct/reconstructor.h"
 
 namespace transient {
 namespace {
@@ -424,5 +429,617 @@ bool PisarenkoByLevinson(std::span<const Complex> c, const PisarenkoSearchGrid& 
   }
   return true;
 }
+
+// ---------------------------------------------------------------------------------------------
+// The same route for eight pixels at a time, one SIMD lane each (kernels_simd.h): every step
+// above runs in all lanes together, a lane that has finished a loop masked out of it until the
+// slowest has, so that the chains of dependent divisions and square roots of eight pixels
+// overlap instead of waiting on each other. Only the sign-change scan, the arctangents of the
+// roots and the final sort are per lane. A lane that any step cannot vouch for (the conditions
+// of PisarenkoByLevinson's returns false) goes to the per-pixel path: PisarenkoByLevinson,
+// then Pisarenko(). The arithmetic is PisarenkoByLevinson's; the results differ from it only
+// by rounding (tests/reconstruct/kernels_test.cc holds both to the reference's contract).
+namespace {
+
+using simd::Abs;
+using simd::Any;
+using simd::Finite;
+using simd::kLanes;
+using simd::Select;
+using simd::Splat;
+using simd::Vd;
+using simd::Vm;
+
+#define TRANSIENT_LANE_INLINE __attribute__((always_inline)) inline
+
+TRANSIENT_LANE_INLINE Vm None() { return Vm{} != Vm{}; }
+TRANSIENT_LANE_INLINE Vd Max(Vd a, Vd b) { return Select(a < b, b, a); }  // std::max(a, b)
+TRANSIENT_LANE_INLINE Vd Min(Vd a, Vd b) { return Select(b < a, b, a); }  // std::min(a, b)
+
+// SolveNormal() in every lane: `a` is n x n row-major (lower triangle read and overwritten),
+// `b` becomes the solution. Returns the lanes whose pivots all pass kSmallestPivot and whose
+// solution is finite.
+template <int N>
+TRANSIENT_LANE_INLINE Vm SolveNormalLanes(Vd* a, Vd* b) {
+  Vd largest = a[0];
+  for (int i = 1; i < N; ++i) largest = Max(largest, a[i * N + i]);
+  const Vd one = Splat(1.0);
+  const Vd smallest = Splat(kSmallestPivot) * largest;
+  Vm ok = simd::True();
+  Vd inverse[N];
+  for (int i = 0; i < N; ++i) {
+    for (int k = 0; k <= i; ++k) {
+      Vd sum = a[i * N + k];
+      for (int j = 0; j < k; ++j) sum -= a[i * N + j] * a[k * N + j];
+      if (k < i) {
+        a[i * N + k] = sum * inverse[k];
+      } else {
+        ok &= sum > smallest;  // also NaN
+        inverse[i] = one / simd::Sqrt(sum);
+      }
+    }
+  }
+  for (int i = 0; i < N; ++i) {
+    Vd sum = b[i];
+    for (int j = 0; j < i; ++j) sum -= a[i * N + j] * b[j];
+    b[i] = sum * inverse[i];
+  }
+  for (int i = N - 1; i >= 0; --i) {
+    Vd sum = b[i];
+    for (int j = i + 1; j < N; ++j) sum -= a[j * N + i] * b[j];
+    b[i] = sum * inverse[i];
+  }
+  for (int i = 0; i < N; ++i) ok &= Finite(b[i]);
+  return ok;
+}
+
+// Returns in lanes: what `Returns` holds for one pixel, for M returns of order M.
+template <int M>
+struct ReturnLanes {
+  Vd phase[M], unit_re[M], unit_im[M], weight[M];
+  Vd re[M][M + 1], im[M][M + 1];
+  Vd residual_re[M + 1], residual_im[M + 1];
+  Vd residual_norm;
+
+  TRANSIENT_LANE_INLINE void SetPowers() {
+    for (int l = 0; l < M; ++l) {
+      Vd pr = Splat(1.0), pi = Splat(0.0);
+      for (int j = 0; j <= M; ++j) {
+        re[l][j] = pr;
+        im[l][j] = pi;
+        const Vd next = pr * unit_re[l] - pi * unit_im[l];
+        pi = pr * unit_im[l] + pi * unit_re[l];
+        pr = next;
+      }
+    }
+  }
+  TRANSIENT_LANE_INLINE void SetResidual(const Vd* b_re, const Vd* b_im) {
+    Vd norm = Splat(0.0);
+    for (int j = 0; j <= M; ++j) {
+      Vd x = -b_re[j], y = -b_im[j];
+      for (int l = 0; l < M; ++l) {
+        x += weight[l] * re[l][j];
+        y += weight[l] * im[l][j];
+      }
+      residual_re[j] = x;
+      residual_im[j] = y;
+      norm += x * x + y * y;
+    }
+    residual_norm = norm;
+  }
+  // Takes `other`'s values in the lanes of `mask`.
+  TRANSIENT_LANE_INLINE void Take(Vm mask, const ReturnLanes& other) {
+    for (int l = 0; l < M; ++l) {
+      phase[l] = Select(mask, other.phase[l], phase[l]);
+      unit_re[l] = Select(mask, other.unit_re[l], unit_re[l]);
+      unit_im[l] = Select(mask, other.unit_im[l], unit_im[l]);
+      weight[l] = Select(mask, other.weight[l], weight[l]);
+      for (int j = 0; j <= M; ++j) {
+        re[l][j] = Select(mask, other.re[l][j], re[l][j]);
+        im[l][j] = Select(mask, other.im[l][j], im[l][j]);
+      }
+    }
+    for (int j = 0; j <= M; ++j) {
+      residual_re[j] = Select(mask, other.residual_re[j], residual_re[j]);
+      residual_im[j] = Select(mask, other.residual_im[j], residual_im[j]);
+    }
+    residual_norm = Select(mask, other.residual_norm, residual_norm);
+  }
+};
+
+// Step 1's results for a chunk of pixels, one slot a pixel.
+template <int M>
+struct LambdaChunk {
+  static constexpr int kSize = 256;
+  alignas(64) double q_re[M + 1][kSize];
+  alignas(64) double q_im[M + 1][kSize];
+  alignas(64) double lambda_min[kSize];
+  alignas(64) int64_t ok[kSize];  // -1 where step 1 found lambda_min, else 0
+};
+
+// Step 1 of PisarenkoByLevinson (lambda_min, and q at it) for pixels [begin, begin + count),
+// count <= LambdaChunk::kSize, in lanes that take the next pixel as soon as theirs is done:
+// pixels need 2 to 20 recursions, and a vector that waited for its slowest lane would run
+// 11.3 turns for the 7.2 that its pixels need on average (m = 3, the benchmark's frames). Each
+// turn runs the recursion at every lane's next shift, then moves each lane on by its outcome:
+// - a new pixel's first recursion (at 0) starts its Newton steps, or, beyond the leading
+//   minor's lambda_min, restarts from Gershgorin's bound (PisarenkoByLevinson's `restart`);
+// - then the loop's turn: the bracket, Newton's step, convergence, the next shift.
+// A lane that finishes (or fails) writes its slot and takes the next pixel.
+template <int M>
+TRANSIENT_LANE_INLINE void LambdaMinChunk(const SolvedImage& solved, int64_t begin, int count,
+                                          LambdaChunk<M>* out) {
+  const int64_t pixels = solved.geometry.pixel_count();
+  const Vd zero = Splat(0.0);
+  const Vd infinity = Splat(std::numeric_limits<double>::infinity());
+  for (int o = 0; o < count; ++o) out->ok[o] = 0;
+  // The next pixel whose C(c) the route can take (PisarenkoByLevinson's first checks), or -1.
+  int queue = 0;
+  const auto next_pixel = [&]() {
+    for (; queue < count; ++queue) {
+      const int64_t pixel = begin + queue;
+      if (!solved.valid(pixel)) continue;
+      const double c0 = solved.c_real[pixel];
+      if (!(c0 > 0.0) || !std::isfinite(c0)) continue;
+      bool finite = true;
+      for (int j = 1; j <= M; ++j) {
+        finite &= std::isfinite(solved.c_real[j * pixels + pixel]) &&
+                  std::isfinite(solved.c_imag[j * pixels + pixel]);
+      }
+      if (finite) return queue++;
+    }
+    return -1;
+  };
+  Vd cr[M + 1], ci[M + 1], qr[M + 1], qi[M + 1], tr[M + 1], ti[M + 1];
+  for (int j = 0; j <= M; ++j) cr[j] = ci[j] = qr[j] = qi[j] = zero;
+  Vd below = zero, above = zero, lambda = zero, next = zero, tolerance = zero, lambda_min = zero;
+  Vd steps = zero;
+  Vm live = None(), start = None(), restart = None(), positive = None();
+  int slot[kLanes] = {};
+  // Puts pixels into the lanes of `lanes` that have none, and starts them.
+  const auto refill = [&](Vm lanes) {
+    Vm fresh = None();
+    for (int i = 0; i < kLanes; ++i) {
+      if (lanes[i] == 0) continue;
+      const int o = next_pixel();
+      if (o < 0) {
+        live[i] = 0;
+        continue;
+      }
+      const int64_t pixel = begin + o;
+      for (int j = 0; j <= M; ++j) {
+        cr[j][i] = solved.c_real[j * pixels + pixel];
+        ci[j][i] = j == 0 ? 0.0 : solved.c_imag[j * pixels + pixel];
+      }
+      slot[i] = o;
+      live[i] = -1;
+      fresh[i] = -1;
+    }
+    below = Select(fresh, -infinity, below);
+    above = Select(fresh, cr[0], above);  // lambda_min <= e_0^* C e_0 = c_0
+    lambda = Select(fresh, zero, lambda);
+    next = Select(fresh, zero, next);
+    tolerance = Select(fresh, Splat(kLambdaTolerance) * cr[0], tolerance);
+    steps = Select(fresh, zero, steps);
+    start |= fresh;
+    restart &= ~fresh;
+  };
+  refill(simd::True());
+  while (Any(live)) {
+    Vm indefinite;
+    const Vm fine = simd::LevinsonLanes<M, true>(cr[0] - next, cr, ci, tr, ti, &indefinite);
+    const Vm definite = fine & ~indefinite;
+    const Vm stepping_before = live & ~start & ~restart;
+    Vm done = None(), found = None();
+    // A new pixel beyond the leading minor's lambda_min restarts below lambda_min.
+    const Vm to_restart = live & start & ~fine;
+    done |= live & restart & ~definite;  // not even there: the per-pixel path
+    const Vm failed = stepping_before & ~fine;
+    const Vm singular = failed & (next < lambda);  // from above: singular to rounding
+    lambda_min = Select(singular, next, lambda_min);
+    done |= singular;
+    found |= singular;
+    above = Select(failed & ~singular, next, above);  // past the leading minor's: bisect
+    const Vm accepted = live & ((start & fine) | (restart & definite) | (stepping_before & fine));
+    lambda = Select(accepted, next, lambda);
+    positive = (accepted & definite) | (~accepted & positive);
+    for (int j = 0; j <= M; ++j) {
+      qr[j] = Select(accepted, tr[j], qr[j]);
+      qi[j] = Select(accepted, ti[j], qi[j]);
+    }
+    if (Any(to_restart)) {  // from Gershgorin's bound on lambda_min
+      Vd off_diagonal = zero;
+      for (int j = 1; j <= M; ++j) {
+        off_diagonal += Splat(2.0) * simd::Sqrt(cr[j] * cr[j] + ci[j] * ci[j]);
+      }
+      above = Select(to_restart, lambda, above);
+      next = Select(to_restart, cr[0] - off_diagonal - Splat(1e-9) * cr[0], next);
+    }
+    restart = to_restart;
+    start = None();
+    // The loop's turn (PisarenkoByLevinson's step 1) for the lanes in it.
+    const Vm stepping = live & ~done & ~to_restart;
+    steps = Select(stepping, steps + Splat(1.0), steps);
+    done |= stepping & (steps > Splat(kMaxLambdaSteps));  // no convergence
+    below = Select(stepping & positive, Max(below, lambda), below);
+    above = Select(stepping & ~positive, Min(above, lambda), above);
+    Vd norm = zero;
+    for (int j = 0; j <= M; ++j) norm += qr[j] * qr[j] + qi[j] * qi[j];
+    const Vd newton = qr[0] / norm;
+    const Vm converged = stepping & ~done & (Abs(newton) <= tolerance);
+    lambda_min = Select(converged, lambda + newton, lambda_min);
+    const Vd step_to = lambda + newton;
+    const Vm inside = (step_to > below) & (step_to < above);
+    const Vm collapsed = stepping & ~done & ~converged & ~inside & ~(above - below > tolerance);
+    lambda_min = Select(collapsed, Splat(0.5) * (below + above), lambda_min);
+    done |= converged | collapsed;
+    found |= converged | collapsed;
+    next = Select(stepping & ~done,
+                  Select(inside, step_to,
+                         Select(Finite(below), Splat(0.5) * (below + above),
+                                above - Splat(2.0) * (above - lambda))),
+                  next);
+    if (!Any(done)) continue;
+    for (int i = 0; i < kLanes; ++i) {
+      if (done[i] == 0) continue;
+      const int o = slot[i];
+      out->ok[o] = found[i] != 0 && std::isfinite(lambda_min[i]) ? -1 : 0;
+      out->lambda_min[o] = lambda_min[i];
+      for (int j = 0; j <= M; ++j) {
+        out->q_re[j][o] = qr[j][i];
+        out->q_im[j][o] = qi[j][i];
+      }
+    }
+    refill(done);
+  }
+}
+
+// Steps 2 and 3 of PisarenkoByLevinson for pixels [p, p + kLanes), after step 1 in `chunk`
+// from slot o; *decided counts the lanes settled here, the others (valid ones) go to the
+// per-pixel path.
+template <int M>
+TRANSIENT_LANE_INLINE void FinishLanes(const SolvedImage& solved, const PisarenkoSearchGrid& grid,
+                                       const LambdaChunk<M>& chunk, int o, int64_t p,
+                                       PisarenkoImage* result, int64_t* decided) {
+  constexpr int kPoints = 16 * (M + 1);
+  const int64_t pixels = solved.geometry.pixel_count();
+  const Vd zero = Splat(0.0), one = Splat(1.0);
+  Vm valid;
+  for (int i = 0; i < kLanes; ++i) valid[i] = solved.valid(p + i) ? -1 : 0;
+  Vm ok;
+  std::memcpy(&ok, chunk.ok + o, sizeof(ok));
+  Vd cr[M + 1], ci[M + 1], qr[M + 1], qi[M + 1];
+  for (int j = 0; j <= M; ++j) {
+    // Lanes without a lambda_min get the identity (c = e_0): no NaN runs through the others'.
+    cr[j] = Select(ok, simd::Load(solved.c_real.data() + j * pixels + p), Splat(j == 0));
+    ci[j] = j == 0 ? zero : Select(ok, simd::Load(solved.c_imag.data() + j * pixels + p), zero);
+    qr[j] = Select(ok, simd::Load(chunk.q_re[j] + o), Splat(j == 0));
+    qi[j] = Select(ok, simd::Load(chunk.q_im[j] + o), zero);
+  }
+  const Vd c0 = cr[0];
+  const Vd lambda_min = Select(ok, simd::Load(chunk.lambda_min + o), zero);
+
+  // 2. The roots on the unit circle (PisarenkoByLevinson's step 2).
+  const Vd q0 = Abs(qr[0]);
+  const Vd persymmetry = (qr[M] * qr[M] + qi[M] * qi[M]) / (q0 * q0) - one;
+  ok &= Abs(persymmetry) < Splat(2.0 * kPersymmetryTolerance);
+  if (!Any(ok)) goto per_pixel;
+  {
+    // e^{i theta / 2} = sqrt(q_m / q_0) (q_0 is real): the principal square root, (s, y / 2s)
+    // with s = sqrt((r + x) / 2) for x >= 0, else (|y| / 2t, sign(y) t), t = sqrt((r - x) / 2);
+    // |q_m / q_0| is 1 here, so neither s nor t is small.
+    const Vd zr = qr[M] / qr[0], zi = qi[M] / qr[0];
+    const Vd r = simd::Sqrt(zr * zr + zi * zi);
+    const Vm right_half = zr >= zero;
+    const Vd s = simd::Sqrt(Splat(0.5) * (r + Abs(zr)));
+    const Vd t = Splat(0.5) * Abs(zi) / s;
+    const Vd signed_s = Select(zi < zero, -s, s);
+    const Vd rotation_re = Select(right_half, s, t);
+    const Vd rotation_im = Select(right_half, Splat(0.5) * zi / s, signed_s);
+    const Vd inverse_q0 = one / q0;
+    Vd p_re[M + 1], p_im[M + 1], a_re[M + 1], a_im[M + 1];
+    for (int j = 0; j <= M; ++j) {
+      p_re[j] = qr[j] * inverse_q0;
+      p_im[j] = -qi[j] * inverse_q0;
+      a_re[j] = rotation_re * p_re[j] - rotation_im * p_im[j];
+      a_im[j] = rotation_re * p_im[j] + rotation_im * p_re[j];
+    }
+    Vd values[kPoints];
+    for (int g = 0; g < kPoints; ++g) {
+      Vd v = zero;
+      for (int j = 0; j <= M; ++j) v += a_re[j] * grid.real(j)[g] - a_im[j] * grid.imag(j)[g];
+      values[g] = v;
+    }
+    // Brackets: the sign changes of R, exactly M of them in each lane, recorded as the grid
+    // index g of each (slot l takes the l-th), then Newton's starting point in each: the chord
+    // point between the grid's two points put back on the circle.
+    const double spacing = kTwoPi / kPoints;
+    Vd slot[M];
+    for (int l = 0; l < M; ++l) slot[l] = zero;
+    Vm count = Vm{};
+    Vm negative = values[0] < zero;
+    // R(phi + 2 pi) = (-1)^m R(phi): after the last point comes -R(0) for odd m.
+    const Vd last = (M % 2 == 0) ? values[0] : -values[0];
+    for (int g = 0; g < kPoints; ++g) {
+      const Vm next_negative = (g + 1 < kPoints ? values[g + 1] : last) < zero;
+      const Vm change = negative ^ next_negative;
+      for (int l = 0; l < M; ++l)
+        slot[l] = Select(change & (count == (Vm{} + l)), Splat(g), slot[l]);
+      count -= change;  // a set lane of a comparison is -1
+      negative = next_negative;
+    }
+    ok &= count == (Vm{} + M);  // more sign changes than roots: rounding at a double root
+    Vd x[M], y[M], middle_re[M], middle_im[M], middle[M];
+    for (int l = 0; l < M; ++l) {
+      Vd left = one, right = -one, gx = one, gy = zero, hx = one, hy = zero;
+      for (int i = 0; i < kLanes; ++i) {
+        if (ok[i] == 0) continue;
+        const int g = static_cast<int>(slot[l][i]);
+        const int h = (g + 1) % kPoints;
+        left[i] = values[g][i];
+        right[i] = g + 1 < kPoints ? values[g + 1][i] : last[i];
+        gx[i] = grid.unit_real(g);
+        gy[i] = grid.unit_imag(g);
+        hx[i] = grid.unit_real(h);
+        hy[i] = grid.unit_imag(h);
+      }
+      const Vd t = left / (left - right);
+      const Vd cx = (one - t) * gx + t * hx;
+      const Vd cy = (one - t) * gy + t * hy;
+      const Vd length = simd::Sqrt(cx * cx + cy * cy);  // near 1: a chord of the unit circle
+      x[l] = cx / length;
+      y[l] = cy / length;
+      // The bracket's middle, e^{i (g + 1/2) spacing}, bisecting its two grid points.
+      const Vd mx = gx + hx, my = gy + hy;
+      const Vd middle_length = simd::Sqrt(mx * mx + my * my);
+      middle_re[l] = mx / middle_length;
+      middle_im[l] = my / middle_length;
+      middle[l] = (slot[l] + Splat(0.5)) * Splat(spacing);
+    }
+    // Newton's method on P for all M roots of all lanes together.
+    Vm searching[M], found[M];
+    for (int l = 0; l < M; ++l) {
+      searching[l] = ok;
+      found[l] = None();
+    }
+    const Vd tolerance_squared = Splat(kRootTolerance * kRootTolerance);
+    for (int step = 0; step < kMaxRootSteps; ++step) {
+      Vm any = None();
+      for (int l = 0; l < M; ++l) any |= searching[l];
+      if (!Any(any)) break;
+      for (int l = 0; l < M; ++l) {
+        Vd v_re = p_re[M], v_im = p_im[M], d_re = zero, d_im = zero;
+        for (int j = M - 1; j >= 0; --j) {  // Horner for P and P'
+          const Vd e_re = d_re * x[l] - d_im * y[l] + v_re;
+          d_im = d_re * y[l] + d_im * x[l] + v_im;
+          d_re = e_re;
+          const Vd f_re = v_re * x[l] - v_im * y[l] + p_re[j];
+          v_im = v_re * y[l] + v_im * x[l] + p_im[j];
+          v_re = f_re;
+        }
+        const Vd denominator = d_re * d_re + d_im * d_im;
+        searching[l] &= denominator > zero;  // a lane that stops here has not converged
+        const Vd dx = (v_re * d_re + v_im * d_im) / denominator;
+        const Vd dy = (v_im * d_re - v_re * d_im) / denominator;
+        x[l] = Select(searching[l], x[l] - dx, x[l]);
+        y[l] = Select(searching[l], y[l] - dy, y[l]);
+        const Vm converged = searching[l] & (dx * dx + dy * dy <= tolerance_squared);
+        found[l] |= converged;
+        searching[l] &= ~converged;
+      }
+    }
+    ReturnLanes<M> buffers[2];
+    ReturnLanes<M>* current = &buffers[0];
+    ReturnLanes<M>* trial = &buffers[1];
+    for (int l = 0; l < M; ++l) {
+      ok &= found[l];
+      const Vd radius = simd::Sqrt(x[l] * x[l] + y[l] * y[l]);
+      ok &= Abs(radius - one) < Splat(kUnitCircleTolerance);
+      current->unit_re[l] = x[l] / radius;
+      current->unit_im[l] = y[l] / radius;
+    }
+    // Each root in its own bracket (Newton may have gone to a neighbour's): within one grid
+    // step of the bracket's middle, whose phase is known, so that the root's phase is the
+    // middle's plus the small angle delta between them, tan delta = cross / dot:
+    // atan t = sum_k (-1)^k t^(2k+1) / (2k+1), |t| <= tan(2 pi / 32) < 0.2, where 13 terms
+    // leave an error below 0.2^27 / 27 < 1e-20 (an alternating series: less than the first
+    // term left out). PisarenkoByLevinson takes atan2 of the root instead (one ulp apart).
+    const Vd largest_tangent = Splat(std::tan(spacing));
+    for (int l = 0; l < M; ++l) {
+      const Vd ux = current->unit_re[l], uy = current->unit_im[l];
+      const Vd dot = middle_re[l] * ux + middle_im[l] * uy;
+      const Vd cross = middle_re[l] * uy - middle_im[l] * ux;
+      const Vd t = cross / dot;
+      ok &= (dot > zero) & (Abs(t) <= largest_tangent);
+      const Vd t2 = t * t;
+      Vd series = Splat(1.0 / 25.0);
+      for (int k = 11; k >= 0; --k) {
+        series = Splat((k % 2 == 0 ? 1.0 : -1.0) / (2 * k + 1)) + t2 * series;
+      }
+      Vd phase = middle[l] + t * series;
+      phase = Select(phase < zero, phase + Splat(kTwoPi), phase);
+      phase = Select(phase >= Splat(kTwoPi), phase - Splat(kTwoPi), phase);
+      current->phase[l] = phase;
+    }
+    if (!Any(ok)) goto per_pixel;
+
+    // 3. Weights by the normal equations, then the Gauss-Newton polish (step 3 above).
+    Vd b_re[M + 1], b_im[M + 1];
+    b_re[0] = c0 - lambda_min;
+    b_im[0] = zero;
+    for (int j = 1; j <= M; ++j) {
+      b_re[j] = cr[j];
+      b_im[j] = ci[j];
+    }
+    current->SetPowers();
+    Vd normal[4 * M * M];
+    Vd rhs[2 * M];
+    for (int l = 0; l < M; ++l) {
+      for (int k = 0; k <= l; ++k) {
+        Vd sum = zero;
+        for (int j = 0; j <= M; ++j) {
+          sum += current->re[l][j] * current->re[k][j] + current->im[l][j] * current->im[k][j];
+        }
+        normal[l * M + k] = sum;
+      }
+      Vd sum = zero;
+      for (int j = 0; j <= M; ++j) sum += current->re[l][j] * b_re[j] + current->im[l][j] * b_im[j];
+      rhs[l] = sum;
+    }
+    ok &= SolveNormalLanes<M>(normal, rhs);
+    for (int l = 0; l < M; ++l) current->weight[l] = rhs[l];
+    current->SetResidual(b_re, b_im);
+    const Vd converged_norm = (Splat(kPolishedResidual) * c0) * (Splat(kPolishedResidual) * c0);
+    Vm polishing = ok;
+    for (int step = 0; step < kPolishSteps; ++step) {
+      const Vm active_polish = polishing & (current->residual_norm > converged_norm);
+      if (!Any(active_polish)) break;
+      const ReturnLanes<M>& r = *current;
+      constexpr int kSize2 = 2 * M;
+      for (int l = 0; l < M; ++l) {
+        for (int k = 0; k < M; ++k) {
+          Vd s0 = zero, s1 = zero, s2 = zero;
+          for (int j = 0; j <= M; ++j) {
+            const Vd real = r.re[l][j] * r.re[k][j] + r.im[l][j] * r.im[k][j];
+            const Vd imag = r.re[l][j] * r.im[k][j] - r.im[l][j] * r.re[k][j];
+            s0 += real;
+            s1 += static_cast<double>(j) * imag;
+            s2 += static_cast<double>(j * j) * real;
+          }
+          if (k <= l) {
+            normal[l * kSize2 + k] = s0;
+            normal[(M + l) * kSize2 + M + k] = r.weight[l] * r.weight[k] * s2;
+          }
+          normal[(M + k) * kSize2 + l] = -r.weight[k] * s1;
+        }
+        Vd g0 = zero, g1 = zero;
+        for (int j = 0; j <= M; ++j) {
+          g0 += r.re[l][j] * r.residual_re[j] + r.im[l][j] * r.residual_im[j];
+          g1 += static_cast<double>(j) *
+                (r.re[l][j] * r.residual_im[j] - r.im[l][j] * r.residual_re[j]);
+        }
+        rhs[l] = -g0;
+        rhs[M + l] = -r.weight[l] * g1;
+      }
+      const Vm solvable = SolveNormalLanes<kSize2>(normal, rhs);
+      ok &= ~active_polish | solvable;
+      const Vm stepping = active_polish & solvable;
+      for (int l = 0; l < M; ++l) {
+        trial->weight[l] = r.weight[l] + rhs[l];
+        const Vd delta = rhs[M + l];
+        // WrapPhase for the small steps of a polish, lane by lane beyond them.
+        Vd phase = r.phase[l] + delta;
+        phase = Select(phase < zero, phase + Splat(kTwoPi), phase);
+        phase = Select(phase >= Splat(kTwoPi), phase - Splat(kTwoPi), phase);
+        // As PisarenkoByLevinson: Taylor's series to delta^6 below 1e-2, cos and sin above.
+        const Vd d2 = delta * delta;
+        Vd cos_delta = one - d2 * (Splat(0.5) - d2 * (Splat(1.0 / 24.0) - d2 * Splat(1.0 / 720.0)));
+        Vd sin_delta =
+            delta *
+            (one - d2 * (Splat(1.0 / 6.0) - d2 * (Splat(1.0 / 120.0) - d2 * Splat(1.0 / 5040.0))));
+        const Vm large = stepping & ~(Abs(delta) < Splat(1e-2));
+        if (Any(large)) {
+          for (int i = 0; i < kLanes; ++i) {
+            if (large[i] == 0) continue;
+            cos_delta[i] = std::cos(delta[i]);
+            sin_delta[i] = std::sin(delta[i]);
+            phase[i] = WrapPhase(r.phase[l][i] + delta[i]);
+          }
+        }
+        trial->phase[l] = phase;
+        trial->unit_re[l] = r.unit_re[l] * cos_delta - r.unit_im[l] * sin_delta;
+        trial->unit_im[l] = r.unit_re[l] * sin_delta + r.unit_im[l] * cos_delta;
+      }
+      trial->SetPowers();
+      trial->SetResidual(b_re, b_im);
+      const Vm improved = stepping & (trial->residual_norm < r.residual_norm);
+      current->Take(improved, *trial);
+      polishing = improved;
+    }
+
+    // Ascending phases, negligible returns dropped, as PisarenkoByLevinson.
+    const Vd sparse_mass = Max(c0 - lambda_min, zero);
+    for (int i = 0; i < kLanes; ++i) {
+      if (ok[i] == 0) continue;
+      const int64_t pixel = p + i;
+      std::array<int, M> order;
+      for (int l = 0; l < M; ++l) order[l] = l;
+      std::sort(order.begin(), order.end(),
+                [&](int a, int b) { return current->phase[a][i] < current->phase[b][i]; });
+      result->uniform[pixel] = static_cast<float>(lambda_min[i]);
+      int count = 0;
+      for (int l : order) {
+        const double weight = current->weight[l][i];
+        if (!(weight > kNegligibleWeight * sparse_mass[i])) continue;
+        result->phase[count * pixels + pixel] = static_cast<float>(current->phase[l][i]);
+        result->weight[count * pixels + pixel] = static_cast<float>(weight);
+        ++count;
+      }
+      ++*decided;
+    }
+  }
+per_pixel:
+  for (int i = 0; i < kLanes; ++i) {
+    if (valid[i] != 0 && ok[i] == 0) {
+      internal::PisarenkoPixels(solved, p + i, p + i + 1, result, &grid);
+    }
+  }
+}
+
+TRANSIENT_LANE_INLINE void PisarenkoBlockAnyOrder(const SolvedImage& solved,
+                                                  const PisarenkoSearchGrid& grid, int64_t begin,
+                                                  int64_t end, PisarenkoImage* result,
+                                                  int64_t* decided) {
+  int64_t p = begin;
+  // Orders up to 8 in lanes (each order compiled costs compile time); above, per pixel. Whole
+  // vectors only; the last pixels of the range, fewer than a vector, per pixel.
+  if (solved.order <= 8) {
+    switch (solved.order) {
+#define TRANSIENT_PISARENKO_CASE(M)                                                                \
+  case M:                                                                                          \
+    for (; p + kLanes <= end;) {                                                                   \
+      LambdaChunk<M> chunk;                                                                        \
+      const int count =                                                                            \
+          static_cast<int>(std::min<int64_t>(LambdaChunk<M>::kSize, (end - p) / kLanes * kLanes)); \
+      LambdaMinChunk<M>(solved, p, count, &chunk);                                                 \
+      for (int o = 0; o < count; o += kLanes) {                                                    \
+        FinishLanes<M>(solved, grid, chunk, o, p + o, result, decided);                            \
+      }                                                                                            \
+      p += count;                                                                                  \
+    }                                                                                              \
+    break;
+      TRANSIENT_PISARENKO_CASE(1)
+      TRANSIENT_PISARENKO_CASE(2)
+      TRANSIENT_PISARENKO_CASE(3)
+      TRANSIENT_PISARENKO_CASE(4)
+      TRANSIENT_PISARENKO_CASE(5)
+      TRANSIENT_PISARENKO_CASE(6)
+      TRANSIENT_PISARENKO_CASE(7)
+      TRANSIENT_PISARENKO_CASE(8)
+#undef TRANSIENT_PISARENKO_CASE
+    }
+  }
+  internal::PisarenkoPixels(solved, p, end, result, &grid);
+}
+
+TRANSIENT_SIMD_VARIANTS(PisarenkoBlockLanes, PisarenkoBlockAnyOrder,
+                        (const SolvedImage& solved, const PisarenkoSearchGrid& grid, int64_t begin,
+                         int64_t end, PisarenkoImage* result, int64_t* decided),
+                        (solved, grid, begin, end, result, decided))
+
+#undef TRANSIENT_LANE_INLINE
+
+}  // namespace
+
+namespace internal {
+
+int64_t PisarenkoBlock(const SolvedImage& solved, const PisarenkoSearchGrid& grid, int64_t begin,
+                       int64_t end, PisarenkoImage* result) {
+  int64_t decided = 0;
+  PisarenkoBlockLanes(solved, grid, begin, end, result, &decided);
+  return decided;
+}
+
+}  // namespace internal
 
 }  // namespace transient
