@@ -694,13 +694,179 @@ TRANSIENT_LANE_INLINE void LambdaMinChunk(const SolvedImage& solved, int64_t beg
   }
 }
 
+// The Gauss-Newton polish of PisarenkoByLevinson in lanes, while the lanes of `polishing`
+// still improve; clears from *ok the lanes whose normal matrix it could not factorise.
+template <int M>
+TRANSIENT_LANE_INLINE void PolishLanes(Vm polishing, const Vd* b_re, const Vd* b_im,
+                                       Vd converged_norm, ReturnLanes<M>* current,
+                                       ReturnLanes<M>* trial, Vm* ok_lanes) {
+  const Vd zero = Splat(0.0), one = Splat(1.0);
+  Vm& ok = *ok_lanes;
+  Vd normal[4 * M * M];
+  Vd rhs[2 * M];
+  for (int step = 0; step < kPolishSteps; ++step) {
+    const Vm active_polish = polishing & (current->residual_norm > converged_norm);
+    if (!Any(active_polish)) break;
+    const ReturnLanes<M>& r = *current;
+    constexpr int kSize2 = 2 * M;
+    for (int l = 0; l < M; ++l) {
+      for (int k = 0; k < M; ++k) {
+        Vd s0 = zero, s1 = zero, s2 = zero;
+        for (int j = 0; j <= M; ++j) {
+          const Vd real = r.re[l][j] * r.re[k][j] + r.im[l][j] * r.im[k][j];
+          const Vd imag = r.re[l][j] * r.im[k][j] - r.im[l][j] * r.re[k][j];
+          s0 += real;
+          s1 += static_cast<double>(j) * imag;
+          s2 += static_cast<double>(j * j) * real;
+        }
+        if (k <= l) {
+          normal[l * kSize2 + k] = s0;
+          normal[(M + l) * kSize2 + M + k] = r.weight[l] * r.weight[k] * s2;
+        }
+        normal[(M + k) * kSize2 + l] = -r.weight[k] * s1;
+      }
+      Vd g0 = zero, g1 = zero;
+      for (int j = 0; j <= M; ++j) {
+        g0 += r.re[l][j] * r.residual_re[j] + r.im[l][j] * r.residual_im[j];
+        g1 += static_cast<double>(j) *
+              (r.re[l][j] * r.residual_im[j] - r.im[l][j] * r.residual_re[j]);
+      }
+      rhs[l] = -g0;
+      rhs[M + l] = -r.weight[l] * g1;
+    }
+    const Vm solvable = SolveNormalLanes<kSize2>(normal, rhs);
+    ok &= ~active_polish | solvable;
+    const Vm stepping = active_polish & solvable;
+    for (int l = 0; l < M; ++l) {
+      trial->weight[l] = r.weight[l] + rhs[l];
+      const Vd delta = rhs[M + l];
+      // WrapPhase for the small steps of a polish, lane by lane beyond them.
+      Vd phase = r.phase[l] + delta;
+      phase = Select(phase < zero, phase + Splat(kTwoPi), phase);
+      phase = Select(phase >= Splat(kTwoPi), phase - Splat(kTwoPi), phase);
+      // As PisarenkoByLevinson: Taylor's series to delta^6 below 1e-2, cos and sin above.
+      const Vd d2 = delta * delta;
+      Vd cos_delta = one - d2 * (Splat(0.5) - d2 * (Splat(1.0 / 24.0) - d2 * Splat(1.0 / 720.0)));
+      Vd sin_delta =
+          delta *
+          (one - d2 * (Splat(1.0 / 6.0) - d2 * (Splat(1.0 / 120.0) - d2 * Splat(1.0 / 5040.0))));
+      const Vm large = stepping & ~(Abs(delta) < Splat(1e-2));
+      if (Any(large)) {
+        for (int i = 0; i < kLanes; ++i) {
+          if (large[i] == 0) continue;
+          cos_delta[i] = std::cos(delta[i]);
+          sin_delta[i] = std::sin(delta[i]);
+          phase[i] = WrapPhase(r.phase[l][i] + delta[i]);
+        }
+      }
+      trial->phase[l] = phase;
+      trial->unit_re[l] = r.unit_re[l] * cos_delta - r.unit_im[l] * sin_delta;
+      trial->unit_im[l] = r.unit_re[l] * sin_delta + r.unit_im[l] * cos_delta;
+    }
+    trial->SetPowers();
+    trial->SetResidual(b_re, b_im);
+    const Vm improved = stepping & (trial->residual_norm < r.residual_norm);
+    current->Take(improved, *trial);
+    polishing = improved;
+  }
+}
+
+// Writes the returns of the lanes of `ok`, lane i to pixel lane_pixels[i]: ascending phases,
+// negligible returns dropped, as PisarenkoByLevinson.
+template <int M>
+TRANSIENT_LANE_INLINE void WriteLanes(const ReturnLanes<M>& r, Vd lambda_min, Vd c0, Vm ok,
+                                      const int64_t* lane_pixels, int64_t pixels,
+                                      PisarenkoImage* result, int64_t* decided) {
+  const Vd sparse_mass = Max(c0 - lambda_min, Splat(0.0));
+  for (int i = 0; i < kLanes; ++i) {
+    if (ok[i] == 0) continue;
+    const int64_t pixel = lane_pixels[i];
+    std::array<int, M> order;
+    for (int l = 0; l < M; ++l) order[l] = l;
+    std::sort(order.begin(), order.end(),
+              [&](int a, int b) { return r.phase[a][i] < r.phase[b][i]; });
+    result->uniform[pixel] = static_cast<float>(lambda_min[i]);
+    int count = 0;
+    for (int l : order) {
+      const double weight = r.weight[l][i];
+      if (!(weight > kNegligibleWeight * sparse_mass[i])) continue;
+      result->phase[count * pixels + pixel] = static_cast<float>(r.phase[l][i]);
+      result->weight[count * pixels + pixel] = static_cast<float>(weight);
+      ++count;
+    }
+    ++*decided;
+  }
+}
+
+// The returns of a chunk's pixels that need the polish, gathered from FinishLanes's vectors
+// into whole vectors of their own (PolishQueued).
+template <int M>
+struct PolishQueue {
+  static constexpr int kSize = LambdaChunk<M>::kSize;
+  int count = 0;
+  int64_t pixel[kSize + kLanes];
+  alignas(64) double phase[M][kSize + kLanes];
+  alignas(64) double unit_re[M][kSize + kLanes];
+  alignas(64) double unit_im[M][kSize + kLanes];
+  alignas(64) double weight[M][kSize + kLanes];
+  alignas(64) double b_re[M + 1][kSize + kLanes];
+  alignas(64) double b_im[M + 1][kSize + kLanes];
+  alignas(64) double c0[kSize + kLanes];
+  alignas(64) double lambda_min[kSize + kLanes];
+
+  TRANSIENT_LANE_INLINE void Push(Vm lanes, const ReturnLanes<M>& r, const Vd* b_re_lanes,
+                                  const Vd* b_im_lanes, Vd c0_lanes, Vd lambda_min_lanes,
+                                  int64_t p) {
+    for (int i = 0; i < kLanes; ++i) {
+      if (lanes[i] == 0) continue;
+      Copy(count++, i, r, b_re_lanes, b_im_lanes, c0_lanes, lambda_min_lanes, p + i);
+    }
+  }
+  TRANSIENT_LANE_INLINE void Copy(int k, int i, const ReturnLanes<M>& r, const Vd* b_re_lanes,
+                                  const Vd* b_im_lanes, Vd c0_lanes, Vd lambda_min_lanes,
+                                  int64_t at) {
+    pixel[k] = at;
+    for (int l = 0; l < M; ++l) {
+      phase[l][k] = r.phase[l][i];
+      unit_re[l][k] = r.unit_re[l][i];
+      unit_im[l][k] = r.unit_im[l][i];
+      weight[l][k] = r.weight[l][i];
+    }
+    for (int j = 0; j <= M; ++j) {
+      b_re[j][k] = b_re_lanes[j][i];
+      b_im[j][k] = b_im_lanes[j][i];
+    }
+    c0[k] = c0_lanes[i];
+    lambda_min[k] = lambda_min_lanes[i];
+  }
+  // Entries count.. up to the next whole vector repeat the last one (whose lanes are masked).
+  TRANSIENT_LANE_INLINE void Pad() {
+    for (int k = count; k % kLanes != 0; ++k) {
+      pixel[k] = pixel[count - 1];
+      for (int l = 0; l < M; ++l) {
+        phase[l][k] = phase[l][count - 1];
+        unit_re[l][k] = unit_re[l][count - 1];
+        unit_im[l][k] = unit_im[l][count - 1];
+        weight[l][k] = weight[l][count - 1];
+      }
+      for (int j = 0; j <= M; ++j) {
+        b_re[j][k] = b_re[j][count - 1];
+        b_im[j][k] = b_im[j][count - 1];
+      }
+      c0[k] = c0[count - 1];
+      lambda_min[k] = lambda_min[count - 1];
+    }
+  }
+};
+
 // Steps 2 and 3 of PisarenkoByLevinson for pixels [p, p + kLanes), after step 1 in `chunk`
 // from slot o; *decided counts the lanes settled here, the others (valid ones) go to the
 // per-pixel path.
 template <int M>
 TRANSIENT_LANE_INLINE void FinishLanes(const SolvedImage& solved, const PisarenkoSearchGrid& grid,
                                        const LambdaChunk<M>& chunk, int o, int64_t p,
-                                       PisarenkoImage* result, int64_t* decided) {
+                                       PolishQueue<M>* polish, PisarenkoImage* result,
+                                       int64_t* decided) {
   constexpr int kPoints = 16 * (M + 1);
   const int64_t pixels = solved.geometry.pixel_count();
   const Vd zero = Splat(0.0), one = Splat(1.0);
@@ -828,9 +994,8 @@ TRANSIENT_LANE_INLINE void FinishLanes(const SolvedImage& solved, const Pisarenk
         searching[l] &= ~converged;
       }
     }
-    ReturnLanes<M> buffers[2];
-    ReturnLanes<M>* current = &buffers[0];
-    ReturnLanes<M>* trial = &buffers[1];
+    ReturnLanes<M> returns;
+    ReturnLanes<M>* current = &returns;
     for (int l = 0; l < M; ++l) {
       ok &= found[l];
       const Vd radius = simd::Sqrt(x[l] * x[l] + y[l] * y[l]);
@@ -889,94 +1054,17 @@ TRANSIENT_LANE_INLINE void FinishLanes(const SolvedImage& solved, const Pisarenk
     ok &= SolveNormalLanes<M>(normal, rhs);
     for (int l = 0; l < M; ++l) current->weight[l] = rhs[l];
     current->SetResidual(b_re, b_im);
+    // The lanes whose moment equations do not hold to kPolishedResidual yet wait in `polish`
+    // for a vector of their own (a fifth of the lanes at m = 3 on the benchmark's frames, but
+    // in most vectors); the others are done.
     const Vd converged_norm = (Splat(kPolishedResidual) * c0) * (Splat(kPolishedResidual) * c0);
-    Vm polishing = ok;
-    for (int step = 0; step < kPolishSteps; ++step) {
-      const Vm active_polish = polishing & (current->residual_norm > converged_norm);
-      if (!Any(active_polish)) break;
-      const ReturnLanes<M>& r = *current;
-      constexpr int kSize2 = 2 * M;
-      for (int l = 0; l < M; ++l) {
-        for (int k = 0; k < M; ++k) {
-          Vd s0 = zero, s1 = zero, s2 = zero;
-          for (int j = 0; j <= M; ++j) {
-            const Vd real = r.re[l][j] * r.re[k][j] + r.im[l][j] * r.im[k][j];
-            const Vd imag = r.re[l][j] * r.im[k][j] - r.im[l][j] * r.re[k][j];
-            s0 += real;
-            s1 += static_cast<double>(j) * imag;
-            s2 += static_cast<double>(j * j) * real;
-          }
-          if (k <= l) {
-            normal[l * kSize2 + k] = s0;
-            normal[(M + l) * kSize2 + M + k] = r.weight[l] * r.weight[k] * s2;
-          }
-          normal[(M + k) * kSize2 + l] = -r.weight[k] * s1;
-        }
-        Vd g0 = zero, g1 = zero;
-        for (int j = 0; j <= M; ++j) {
-          g0 += r.re[l][j] * r.residual_re[j] + r.im[l][j] * r.residual_im[j];
-          g1 += static_cast<double>(j) *
-                (r.re[l][j] * r.residual_im[j] - r.im[l][j] * r.residual_re[j]);
-        }
-        rhs[l] = -g0;
-        rhs[M + l] = -r.weight[l] * g1;
-      }
-      const Vm solvable = SolveNormalLanes<kSize2>(normal, rhs);
-      ok &= ~active_polish | solvable;
-      const Vm stepping = active_polish & solvable;
-      for (int l = 0; l < M; ++l) {
-        trial->weight[l] = r.weight[l] + rhs[l];
-        const Vd delta = rhs[M + l];
-        // WrapPhase for the small steps of a polish, lane by lane beyond them.
-        Vd phase = r.phase[l] + delta;
-        phase = Select(phase < zero, phase + Splat(kTwoPi), phase);
-        phase = Select(phase >= Splat(kTwoPi), phase - Splat(kTwoPi), phase);
-        // As PisarenkoByLevinson: Taylor's series to delta^6 below 1e-2, cos and sin above.
-        const Vd d2 = delta * delta;
-        Vd cos_delta = one - d2 * (Splat(0.5) - d2 * (Splat(1.0 / 24.0) - d2 * Splat(1.0 / 720.0)));
-        Vd sin_delta =
-            delta *
-            (one - d2 * (Splat(1.0 / 6.0) - d2 * (Splat(1.0 / 120.0) - d2 * Splat(1.0 / 5040.0))));
-        const Vm large = stepping & ~(Abs(delta) < Splat(1e-2));
-        if (Any(large)) {
-          for (int i = 0; i < kLanes; ++i) {
-            if (large[i] == 0) continue;
-            cos_delta[i] = std::cos(delta[i]);
-            sin_delta[i] = std::sin(delta[i]);
-            phase[i] = WrapPhase(r.phase[l][i] + delta[i]);
-          }
-        }
-        trial->phase[l] = phase;
-        trial->unit_re[l] = r.unit_re[l] * cos_delta - r.unit_im[l] * sin_delta;
-        trial->unit_im[l] = r.unit_re[l] * sin_delta + r.unit_im[l] * cos_delta;
-      }
-      trial->SetPowers();
-      trial->SetResidual(b_re, b_im);
-      const Vm improved = stepping & (trial->residual_norm < r.residual_norm);
-      current->Take(improved, *trial);
-      polishing = improved;
-    }
-
-    // Ascending phases, negligible returns dropped, as PisarenkoByLevinson.
-    const Vd sparse_mass = Max(c0 - lambda_min, zero);
-    for (int i = 0; i < kLanes; ++i) {
-      if (ok[i] == 0) continue;
-      const int64_t pixel = p + i;
-      std::array<int, M> order;
-      for (int l = 0; l < M; ++l) order[l] = l;
-      std::sort(order.begin(), order.end(),
-                [&](int a, int b) { return current->phase[a][i] < current->phase[b][i]; });
-      result->uniform[pixel] = static_cast<float>(lambda_min[i]);
-      int count = 0;
-      for (int l : order) {
-        const double weight = current->weight[l][i];
-        if (!(weight > kNegligibleWeight * sparse_mass[i])) continue;
-        result->phase[count * pixels + pixel] = static_cast<float>(current->phase[l][i]);
-        result->weight[count * pixels + pixel] = static_cast<float>(weight);
-        ++count;
-      }
-      ++*decided;
-    }
+    const Vm unpolished = ok & (current->residual_norm > converged_norm);
+    if (Any(unpolished)) polish->Push(unpolished, *current, b_re, b_im, c0, lambda_min, p);
+    ok &= ~unpolished;
+    int64_t lane_pixels[kLanes];
+    for (int i = 0; i < kLanes; ++i) lane_pixels[i] = p + i;
+    WriteLanes<M>(*current, lambda_min, c0, ok, lane_pixels, pixels, result, decided);
+    ok |= unpolished;  // not for the per-pixel path below
   }
 per_pixel:
   for (int i = 0; i < kLanes; ++i) {
@@ -984,6 +1072,71 @@ per_pixel:
       internal::PisarenkoPixels(solved, p + i, p + i + 1, result, &grid);
     }
   }
+}
+
+// Polishes and writes the queued returns, a whole vector at a time; a lane the polish cannot
+// vouch for goes to the per-pixel path.
+template <int M>
+TRANSIENT_LANE_INLINE void PolishQueued(const SolvedImage& solved, const PisarenkoSearchGrid& grid,
+                                        PolishQueue<M>* queue, PisarenkoImage* result,
+                                        int64_t* decided) {
+  if (queue->count == 0) return;
+  queue->Pad();
+  const int64_t pixels = solved.geometry.pixel_count();
+  for (int k = 0; k < queue->count; k += kLanes) {
+    Vm ok;
+    for (int i = 0; i < kLanes; ++i) ok[i] = k + i < queue->count ? -1 : 0;
+    ReturnLanes<M> buffers[2];
+    ReturnLanes<M>* current = &buffers[0];
+    for (int l = 0; l < M; ++l) {
+      current->phase[l] = simd::Load(queue->phase[l] + k);
+      current->unit_re[l] = simd::Load(queue->unit_re[l] + k);
+      current->unit_im[l] = simd::Load(queue->unit_im[l] + k);
+      current->weight[l] = simd::Load(queue->weight[l] + k);
+    }
+    Vd b_re[M + 1], b_im[M + 1];
+    for (int j = 0; j <= M; ++j) {
+      b_re[j] = simd::Load(queue->b_re[j] + k);
+      b_im[j] = simd::Load(queue->b_im[j] + k);
+    }
+    const Vd c0 = simd::Load(queue->c0 + k);
+    const Vd lambda_min = simd::Load(queue->lambda_min + k);
+    current->SetPowers();
+    current->SetResidual(b_re, b_im);
+    const Vd converged_norm = (Splat(kPolishedResidual) * c0) * (Splat(kPolishedResidual) * c0);
+    const Vm in_queue = ok;
+    PolishLanes<M>(ok, b_re, b_im, converged_norm, current, &buffers[1], &ok);
+    WriteLanes<M>(*current, lambda_min, c0, ok, queue->pixel + k, pixels, result, decided);
+    for (int i = 0; i < kLanes; ++i) {
+      if (in_queue[i] != 0 && ok[i] == 0) {
+        internal::PisarenkoPixels(solved, queue->pixel[k + i], queue->pixel[k + i] + 1, result,
+                                  &grid);
+      }
+    }
+  }
+}
+
+// Pixels [p, end) of order M, whole vectors of them in chunks: step 1 for the chunk, then steps 2
+// and 3 vector by vector, then the polish for the lanes that need it. Returns the first pixel
+// left, fewer than a vector before `end`.
+template <int M>
+TRANSIENT_LANE_INLINE int64_t PisarenkoChunks(const SolvedImage& solved,
+                                              const PisarenkoSearchGrid& grid, int64_t p,
+                                              int64_t end, PisarenkoImage* result,
+                                              int64_t* decided) {
+  while (p + kLanes <= end) {
+    LambdaChunk<M> chunk;
+    const int count =
+        static_cast<int>(std::min<int64_t>(LambdaChunk<M>::kSize, (end - p) / kLanes * kLanes));
+    LambdaMinChunk<M>(solved, p, count, &chunk);
+    PolishQueue<M> polish;
+    for (int o = 0; o < count; o += kLanes) {
+      FinishLanes<M>(solved, grid, chunk, o, p + o, &polish, result, decided);
+    }
+    PolishQueued<M>(solved, grid, &polish, result, decided);
+    p += count;
+  }
+  return p;
 }
 
 TRANSIENT_LANE_INLINE void PisarenkoBlockAnyOrder(const SolvedImage& solved,
@@ -995,18 +1148,9 @@ TRANSIENT_LANE_INLINE void PisarenkoBlockAnyOrder(const SolvedImage& solved,
   // vectors only; the last pixels of the range, fewer than a vector, per pixel.
   if (solved.order <= 8) {
     switch (solved.order) {
-#define TRANSIENT_PISARENKO_CASE(M)                                                                \
-  case M:                                                                                          \
-    for (; p + kLanes <= end;) {                                                                   \
-      LambdaChunk<M> chunk;                                                                        \
-      const int count =                                                                            \
-          static_cast<int>(std::min<int64_t>(LambdaChunk<M>::kSize, (end - p) / kLanes * kLanes)); \
-      LambdaMinChunk<M>(solved, p, count, &chunk);                                                 \
-      for (int o = 0; o < count; o += kLanes) {                                                    \
-        FinishLanes<M>(solved, grid, chunk, o, p + o, result, decided);                            \
-      }                                                                                            \
-      p += count;                                                                                  \
-    }                                                                                              \
+#define TRANSIENT_PISARENKO_CASE(M)                                \
+  case M:                                                          \
+    p = PisarenkoChunks<M>(solved, grid, p, end, result, decided); \
     break;
       TRANSIENT_PISARENKO_CASE(1)
       TRANSIENT_PISARENKO_CASE(2)
