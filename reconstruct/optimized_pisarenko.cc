@@ -910,10 +910,23 @@ TRANSIENT_LANE_INLINE void FinishLanes(const SolvedImage& solved, const Pisarenk
       a_re[j] = rotation_re * p_re[j] - rotation_im * p_im[j];
       a_im[j] = rotation_re * p_im[j] + rotation_im * p_re[j];
     }
+    // R(phi) = sum_j Re(a_j w_j), w_j = e^{i (j - m/2) phi}, and w_{m-j} = conj(w_j), where
+    // Re(a_{m-j} conj(w_j)) = Re(conj(a_{m-j}) w_j): the terms j and m - j are one,
+    // Re((a_j + conj(a_{m-j})) w_j), and the middle one of an even m is Re a_{m/2}. Half of
+    // PisarenkoByLevinson's products, the same function.
+    constexpr int kPairs = (M + 1) / 2;
+    Vd pair_re[kPairs], pair_im[kPairs];
+    for (int j = 0; j < kPairs; ++j) {
+      pair_re[j] = a_re[j] + a_re[M - j];
+      pair_im[j] = a_im[j] - a_im[M - j];
+    }
+    const Vd middle_term = M % 2 == 0 ? a_re[M / 2] : zero;
     Vd values[kPoints];
     for (int g = 0; g < kPoints; ++g) {
-      Vd v = zero;
-      for (int j = 0; j <= M; ++j) v += a_re[j] * grid.real(j)[g] - a_im[j] * grid.imag(j)[g];
+      Vd v = middle_term;
+      for (int j = 0; j < kPairs; ++j) {
+        v += pair_re[j] * grid.real(j)[g] - pair_im[j] * grid.imag(j)[g];
+      }
       values[g] = v;
     }
     // Brackets: the sign changes of R, exactly M of them in each lane, recorded as the grid
