@@ -41,19 +41,21 @@ __attribute__((always_inline)) inline Vm LevinsonLanes(Vd c0, const Vd* cr, cons
     }
     const Vd scale = one / (one - norm);
     // q_k := scale (q_k - d conj(q_{l-k})) for k = 0..l, with q_l = 0 and conj(q_l) taken as 0
-    // for k = 0 (the reversed vector of levinson.cc), from the old q: reverse order in pairs.
-    Vd nr[M + 1], ni[M + 1];
-    for (int k = 0; k <= l; ++k) {
-      const Vd rr = k == 0 ? zero : qr[l - k];
-      const Vd ri = k == 0 ? zero : -qi[l - k];
-      const Vd ar = k < l ? qr[k] : zero;
-      const Vd ai = k < l ? qi[k] : zero;
-      nr[k] = scale * (ar - (dr * rr - di * ri));
-      ni[k] = scale * (ai - (dr * ri + di * rr));
-    }
-    for (int k = 0; k <= l; ++k) {
-      qr[k] = nr[k];
-      qi[k] = ni[k];
+    // for k = 0 (the reversed vector of levinson.cc): in place, k and l - k together from
+    // their old values (a copy of q each step cost more than the arithmetic at small m).
+    for (int k = 0; 2 * k <= l; ++k) {
+      const int h = l - k;
+      const Vd old_kr = k < l ? qr[k] : zero, old_ki = k < l ? qi[k] : zero;
+      const Vd old_hr = h < l ? qr[h] : zero, old_hi = h < l ? qi[h] : zero;
+      // conj(q_{l-k}) for k and conj(q_{l-h}) = conj(q_k) for h, 0 at index 0.
+      const Vd rkr = k == 0 ? zero : old_hr, rki = k == 0 ? zero : -old_hi;
+      const Vd rhr = h == 0 ? zero : old_kr, rhi = h == 0 ? zero : -old_ki;
+      qr[k] = scale * (old_kr - (dr * rkr - di * rki));
+      qi[k] = scale * (old_ki - (dr * rki + di * rkr));
+      if (h != k) {
+        qr[h] = scale * (old_hr - (dr * rhr - di * rhi));
+        qi[h] = scale * (old_hi - (dr * rhi + di * rhr));
+      }
     }
   }
   qi[0] = zero;
