@@ -159,13 +159,14 @@ __attribute__((always_inline)) inline void UnwrapBody(const MomentImage& moments
     }
     // theta_0 = arg(c_J) / J and e^{-i theta_0}, per lane.
     Vd theta0 = Splat(0.0);
-    Cv start{Splat(0.0), Splat(0.0)};
+    alignas(64) double start_re[kLanes], start_im[kLanes];
     for (int l = 0; l < kLanes; ++l) {
       theta0[l] = std::arg(std::complex<double>(c[top].re[l], c[top].im[l])) / highest;
       const std::complex<double> s = std::polar(1.0, -theta0[l]);
-      start.re[l] = s.real();
-      start.im[l] = s.imag();
+      start_re[l] = s.real();
+      start_im[l] = s.imag();
     }
+    const Cv start{simd::Load(start_re), simd::Load(start_im)};
     Cv z[kMaxOrder];
     for (size_t i = 0; i < count; ++i) z[i] = Multiply(c[i], PowerV(start, harmonics[i]));
     Vd best = Splat(-infinity), second = best, best_n = Splat(0.0);
