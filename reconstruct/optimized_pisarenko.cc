@@ -431,14 +431,16 @@ bool PisarenkoByLevinson(std::span<const Complex> c, const PisarenkoSearchGrid& 
 }
 
 // ---------------------------------------------------------------------------------------------
-// The same route for eight pixels at a time, one SIMD lane each (kernels_simd.h): every step
-// above runs in all lanes together, a lane that has finished a loop masked out of it until the
-// slowest has, so that the chains of dependent divisions and square roots of eight pixels
-// overlap instead of waiting on each other. Only the sign-change scan, the arctangents of the
-// roots and the final sort are per lane. A lane that any step cannot vouch for (the conditions
-// of PisarenkoByLevinson's returns false) goes to the per-pixel path: PisarenkoByLevinson,
-// then Pisarenko(). The arithmetic is PisarenkoByLevinson's; the results differ from it only
-// by rounding (tests/reconstruct/kernels_test.cc holds both to the reference's contract).
+// The same route for eight pixels at a time, one SIMD lane each (kernels_simd.h), over chunks
+// of pixels in three passes: lambda_min in lanes that take the next pixel as soon as theirs is
+// found (LambdaMinChunk); the roots and weights vector by vector, a lane that has finished a
+// loop masked out of it until the slowest has (FinishLanes); the polish for the lanes that
+// need it, gathered into whole vectors (PolishQueued). Per lane are only the loading of a new
+// pixel, the gathering of each bracket's grid values and the final sort. A lane that any step
+// cannot vouch for (where PisarenkoByLevinson returns false) goes to the per-pixel path:
+// PisarenkoByLevinson, then Pisarenko(). The arithmetic is PisarenkoByLevinson's but for the
+// grid's halved sum and the roots' phases (below); the results differ from it by rounding
+// (tests/reconstruct/kernels_test.cc holds both to the reference's contract).
 namespace {
 
 using simd::Abs;
