@@ -6,11 +6,13 @@
 //   product followed by a reciprocal, vectorized over pixels; phi, -phi, pi + phi and pi - phi
 //   share one evaluation of the series' even and odd parts (PhaseOrbits), and outputs larger
 //   than the caches are written with streaming stores;
-// - Pisarenko per pixel by PisarenkoByLevinson (optimized_pisarenko.cc), the reference's
-//   Pisarenko() where that declines; the cumulative's logarithms as real log and atan
-//   (MeseCumulative::Evaluate) with the phases' cosines and sines tabled once;
+// - Pisarenko by PisarenkoByLevinson's route, eight pixels at a time in SIMD lanes for m <= 8
+//   (internal::PisarenkoBlock, optimized_pisarenko.cc), per pixel above and where the lanes
+//   decline, the reference's Pisarenko() where that declines too; the cumulative's logarithms
+//   as real log and atan (MeseCumulative::Evaluate) with the phases' cosines and sines tabled
+//   once;
 // - OpenMP threads over blocks of pixels for everything, including the per-pixel solvers
-//   (Pisarenko, cumulative, bounds) that stay scalar.
+//   (cumulative, bounds) that stay scalar.
 // The series is summed in double: near a sharp peak it cancels to ~eps^2/(m+1)^2 of a_0, which
 // float could not resolve; the final division is float (its operands are then exact to 1e-7).
 #include <immintrin.h>
