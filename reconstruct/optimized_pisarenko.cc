@@ -457,6 +457,14 @@ using simd::Vm;
 TRANSIENT_LANE_INLINE Vm None() { return Vm{} != Vm{}; }
 TRANSIENT_LANE_INLINE Vd Max(Vd a, Vd b) { return Select(a < b, b, a); }  // std::max(a, b)
 TRANSIENT_LANE_INLINE Vd Min(Vd a, Vd b) { return Select(b < a, b, a); }  // std::min(a, b)
+// WrapPhase (moments.h) of a phase within one period of [0, 2 pi), as a root's phase or a
+// polish step leaves it: 2 pi added or taken once (a tiny negative phase plus 2 pi that
+// rounds to 2 pi becomes 0, as in WrapPhase).
+TRANSIENT_LANE_INLINE Vd WrapPhaseNear(Vd phase) {
+  const Vd period = Splat(kTwoPi);
+  phase = Select(phase < Splat(0.0), phase + period, phase);
+  return Select(phase >= period, phase - period, phase);
+}
 
 // SolveNormal() in every lane: `a` is n x n row-major (lower triangle read and overwritten),
 // `b` becomes the solution. Returns the lanes whose pivots all pass kSmallestPivot and whose
@@ -743,9 +751,7 @@ TRANSIENT_LANE_INLINE void PolishLanes(Vm polishing, const Vd* b_re, const Vd* b
       trial->weight[l] = r.weight[l] + rhs[l];
       const Vd delta = rhs[M + l];
       // WrapPhase for the small steps of a polish, lane by lane beyond them.
-      Vd phase = r.phase[l] + delta;
-      phase = Select(phase < zero, phase + Splat(kTwoPi), phase);
-      phase = Select(phase >= Splat(kTwoPi), phase - Splat(kTwoPi), phase);
+      Vd phase = WrapPhaseNear(r.phase[l] + delta);
       // As PisarenkoByLevinson: Taylor's series to delta^6 below 1e-2, cos and sin above.
       const Vd d2 = delta * delta;
       Vd cos_delta = one - d2 * (Splat(0.5) - d2 * (Splat(1.0 / 24.0) - d2 * Splat(1.0 / 720.0)));
@@ -1036,10 +1042,7 @@ TRANSIENT_LANE_INLINE void FinishLanes(const SolvedImage& solved, const Pisarenk
       for (int k = 11; k >= 0; --k) {
         series = Splat((k % 2 == 0 ? 1.0 : -1.0) / (2 * k + 1)) + t2 * series;
       }
-      Vd phase = middle[l] + t * series;
-      phase = Select(phase < zero, phase + Splat(kTwoPi), phase);
-      phase = Select(phase >= Splat(kTwoPi), phase - Splat(kTwoPi), phase);
-      current->phase[l] = phase;
+      current->phase[l] = WrapPhaseNear(middle[l] + t * series);
     }
     if (!Any(ok)) goto per_pixel;
 
