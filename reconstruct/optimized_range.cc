@@ -10,10 +10,10 @@
 //    per candidate, masked per lane exactly as RefineMinimum of range.cc decides. No
 //    sine or cosine is called: the phase is the grid phase (tabled) plus an offset of at most
 //    one bin, and e^{i offset} is its Taylor polynomial;
-// 4. per pixel, the first peak whose density is at least `threshold` times the highest.
-// From m = 6 (kPrunedOrder) steps 3 and 4 skip the grid minima that cannot change the answer
-// (RefineWhatMatters): bounds on each minimum's denominator prove which, and the answer stays
-// the one refining every minimum gives, bit for bit.
+// 4. per pixel, the first return by MeseFirstReturn (range.cc): the first peak whose density
+//    is at least `threshold` times the highest, or whose light is at least `threshold` times
+//    the brightest peak's where it stands apart. Every grid minimum is refined: the brightest
+//    peak's light needs them all.
 // Grids coarser than kMaxRotation per bin (fewer than 26 phases) take the per-pixel path.
 #include <algorithm>
 #include <array>
@@ -23,6 +23,7 @@
 #include <limits>
 #include <vector>
 
+#include "absl/container/inlined_vector.h"
 #include "kernels_internal.h"
 #include "kernels_simd.h"
 #include "transient/reconstruct/kernels.h"
@@ -90,16 +91,14 @@ RangeTables MakeRangeTables(int m, int bins) {
 
 // Candidates refined together.
 constexpr int kBatch = 256;
-// The lowest order whose grid minima are refined only where they can change the answer
-// (RefineWhatMatters): at m = 8 that skips 59 % of them on the benchmark's frames and runs
-// 1.2x faster; at m = 3 and 4 it skips 25 and 34 % but the bounds cost as much as they save.
-constexpr int kPrunedOrder = 6;
 
 // Per-thread working memory, reused from block to block.
 struct RangeScratch {
   // Planes of kRangeBlock lanes: a_0, Re and Im of a_k for k = 1..m, Re and Im of
   // p_j = conj(q_j) for j = 0..m.
   std::vector<double> planes;
+  // Each lane's grid (grid_stride values a lane): the valleys between its peaks (step 4).
+  int grid_stride = 0;
   std::vector<double> grid;
   std::vector<uint8_t> minimum;  // bins, rounded up to 8 with zeros
   // The batch: grid minima, one per lane of the refinement.
@@ -107,28 +106,26 @@ struct RangeScratch {
   std::vector<int32_t> lane;
   std::vector<double> left, middle, right;
   std::vector<double> center_phase, center_re, center_im;  // the bin's phase, e^{i phase}
-  // Per batch entry: its grid minimum (below), and the phase and |p|^2 refined.
+  // Per batch entry: its grid minimum (below), and the phase, |p|^2 and light refined.
   std::vector<int32_t> target;
-  std::vector<double> refined_phase, refined_denominator;
+  std::vector<double> refined_phase, refined_denominator, refined_light;
   // The grid minima of the block in the order of their lanes and bins, those of lane l in
   // [lane_begin[l], lane_begin[l + 1]): bin, the three grid values around it, and once refined
-  // the phase and |p|^2.
+  // the phase, |p|^2 and light.
   int minima = 0;
   std::vector<int32_t> minimum_lane, minimum_bin;
   std::vector<double> minimum_left, minimum_middle, minimum_right;
-  std::vector<double> minimum_phase, minimum_denominator;
-  std::vector<uint8_t> minimum_refined;
+  std::vector<double> minimum_phase, minimum_denominator, minimum_light;
   std::array<int32_t, kRangeBlock + 1> lane_begin;
-  std::array<int32_t, kRangeBlock> lowest;  // per lane: its minimum of the lowest grid value
-  // Per lane: sum_k 2 k^3 |a_k| (the series' third derivative) and the rounding allowance.
-  std::array<double, kRangeBlock> third_derivative, rounding;
   void Reserve(int m, const RangeTables& t) {
     const size_t planes_per_pixel = static_cast<size_t>(1 + 2 * m + 2 * (m + 1));
     planes.resize(planes_per_pixel * kRangeBlock);
     minimum.assign((t.bins + 31) / 32 * 32, 0);
-    grid.resize(std::max<size_t>(t.stride, minimum.size() + 2));  // past stride: not minima
+    // Past stride: not minima (read as whole vectors of bins, masked).
+    grid_stride = static_cast<int>(std::max<size_t>(t.stride, minimum.size() + 2) + 7) / 8 * 8;
+    grid.resize(static_cast<size_t>(grid_stride) * kRangeBlock);
     for (auto* v : {&left, &middle, &right, &center_phase, &center_re, &center_im, &refined_phase,
-                    &refined_denominator}) {
+                    &refined_denominator, &refined_light}) {
       v->resize(kBatch + kLanes);
     }
     lane.resize(kBatch + kLanes);
@@ -137,11 +134,10 @@ struct RangeScratch {
     const size_t most = static_cast<size_t>(kRangeBlock) * (t.bins / 2 + 1);
     if (minimum_lane.size() < most) {
       for (auto* v : {&minimum_lane, &minimum_bin}) v->resize(most);
-      for (auto* v :
-           {&minimum_left, &minimum_middle, &minimum_right, &minimum_phase, &minimum_denominator}) {
+      for (auto* v : {&minimum_left, &minimum_middle, &minimum_right, &minimum_phase,
+                      &minimum_denominator, &minimum_light}) {
         v->resize(most);
       }
-      minimum_refined.resize(most);
     }
   }
 };
@@ -269,7 +265,8 @@ __attribute__((always_inline)) inline Vd NormOfP(const Coefficients<M>& g, Units
 }
 
 // Step 3: RefineMinimum of range.cc for every candidate of the batch, eight at a time, then
-// its phase and |p|^2 there go to the grid minimum it came from (target).
+// its phase, |p|^2 and light there (MesePeakLight) go to the grid minimum it came from
+// (target).
 template <int M>
 __attribute__((always_inline)) inline void RefineBatch(const RangeTables& t, const Planes<M>& b,
                                                        RangeScratch& s) {
@@ -316,7 +313,18 @@ __attribute__((always_inline)) inline void RefineBatch(const RangeTables& t, con
     const Vd x = Select(accept, offset, vertex * h);
     // Where accepted, x is the phase `lower` was evaluated at: |p|^2 there is `lower`.
     Vd denominator = lower;
-    if (!All(accept)) denominator = Select(accept, lower, NormOfP<M>(g, UnitsAt(s, c, x)));
+    const Units z = UnitsAt(s, c, x);
+    if (!All(accept)) denominator = Select(accept, lower, NormOfP<M>(g, z));
+    // The series' second derivative at x, -2 sum_k k^2 Re(a_k e^{ik phi}), and the light.
+    Vd wr = z.re, wi = z.im, second = zero;
+    for (int k = 1; k <= M; ++k) {
+      second -= (2.0 * k * k) * (g.ar[k - 1] * wr - g.ai[k - 1] * wi);
+      const Vd nr = wr * z.re - wi * z.im;
+      wi = wr * z.im + wi * z.re;
+      wr = nr;
+    }
+    const Vd top = denominator + 2.0 * Select(second > zero, second, zero);
+    Store(&s.refined_light[c], 1.0 / simd::Sqrt(denominator * top) - 1.0 / top);
     Store(&s.refined_denominator[c], denominator);
     Store(&s.refined_phase[c], Load(&s.center_phase[c]) + x);
   }
@@ -325,7 +333,7 @@ __attribute__((always_inline)) inline void RefineBatch(const RangeTables& t, con
     const int i = s.target[c];
     s.minimum_phase[i] = s.refined_phase[c];
     s.minimum_denominator[i] = s.refined_denominator[c];
-    s.minimum_refined[i] = 1;
+    s.minimum_light[i] = s.refined_light[c];
   }
   s.count = 0;
 }
@@ -358,7 +366,7 @@ __attribute__((always_inline)) inline void SearchLane(const RangeTables& t, cons
     aim[k] = b.ai[k * kRangeBlock + l];
   }
   const double a0 = b.a0[l];
-  double* grid = s.grid.data();
+  double* grid = s.grid.data() + static_cast<size_t>(l) * s.grid_stride;
   const int stride = t.stride;  // a whole number of vectors, at least bins + 2
   const double* c2 = t.c2.data();
   const double* s2 = t.s2.data();
@@ -405,7 +413,7 @@ __attribute__((always_inline)) inline void SearchLane(const RangeTables& t, cons
   double* left = s.minimum_left.data() + start;
   double* middle = s.minimum_middle.data() + start;
   double* right = s.minimum_right.data() + start;
-  int c = 0, lowest = 0;
+  int c = 0;
   for (int w = 0; w < bins; w += 8) {
     uint64_t bits;  // bin w + i is a minimum iff byte i is 1
     std::memcpy(&bits, minimum + w, sizeof(bits));
@@ -417,112 +425,25 @@ __attribute__((always_inline)) inline void SearchLane(const RangeTables& t, cons
       left[c] = grid[n];
       middle[c] = grid[n + 1];
       right[c] = grid[n + 2];
-      if (middle[c] < middle[lowest]) lowest = c;
       ++c;
     }
   }
   s.minima = start + c;
-  s.lowest[l] = c > 0 ? start + lowest : -1;  // -1: no minimum, a flat density
 }
 
-// A lower bound of |p|^2 on the two bins around grid minimum i, wherever RefineMinimum's phase
-// lands: the parabola P through the three grid values at phi_n + x, x = -h, 0, h, is lowest
-// on [-h, h] at its vertex, middle - (left - right)^2 / (8 curvature) (curvature > 0: middle
-// is below left and not above right); the series differs from P by at most max|r'''| / 6 *
-// max|x (x^2 - h^2)| = max|r'''| h^3 / (9 sqrt 3), with |r'''| <= sum_k 2 k^3 |a_k|; less
-// an allowance for the rounding of the grid and of |p|^2 (each below ~4 (m + 1)^2 eps of
-// a_0 + sum_k 2 |a_k|, allowed 1e-10 of it). -inf where anything is not finite.
-__attribute__((always_inline)) inline double LowerBound(const RangeTables& t, int i,
-                                                        const RangeScratch& s) {
-  const int l = s.minimum_lane[i];
-  const double left = s.minimum_left[i], middle = s.minimum_middle[i], right = s.minimum_right[i];
-  const double curvature = left - 2.0 * middle + right;
-  const double vertex = middle - (left - right) * (left - right) / (8.0 * curvature);
-  const double bound = std::min(vertex, middle) -
-                       s.third_derivative[l] * (t.h * t.h * t.h / (9.0 * std::sqrt(3.0))) -
-                       s.rounding[l];
-  return bound == bound && bound < std::numeric_limits<double>::infinity()
-             ? bound
-             : -std::numeric_limits<double>::infinity();
-}
-
-// Refines only the grid minima that can change the answer, in two rounds; the answer is the
-// one refining all of them gives, bit for bit. Round 1: each lane's minimum of the lowest grid
-// value, a, most often the highest peak. Round 2, with d_a its refined |p|^2 (> 0): every
-// other minimum c whose lower bound L_c is at most d_a (it might be lower than a), and those
-// that might come first and pass the threshold, threshold L_c <= d_a, where c comes before a
-// (a lower bin; near the wrap, where OrderingPhase may move a phase, any bin). Then the
-// smallest |p|^2, S, is among the refined (an unrefined c has d_c >= L_c > d_a >= S); an
-// unrefined c before a cannot pass (threshold d_c > d_a >= S); one after a cannot come first
-// if a passes (bins of minima differ by 2 or more, and a refined phase stays within a bin of
-// its own), and cannot pass if a does not (threshold d_c <= S < threshold d_a would need
-// d_c < d_a, hence L_c < d_a: refined).
-template <int M>
-__attribute__((always_inline)) inline void RefineWhatMatters(const RangeTables& t,
-                                                             const Planes<M>& b, double threshold,
-                                                             int lanes, RangeScratch& s) {
-  for (int l = 0; l < lanes; ++l) {
-    if (s.lowest[l] >= 0) Enqueue<M>(t, b, s.lowest[l], s);
-  }
-  if (s.count > 0) RefineBatch<M>(t, b, s);
-  // Bounds of LowerBound, per lane (an overflow of the squares makes them -inf: all refined).
-  for (int l = 0; l < kRangeBlock; ++l) {
-    s.third_derivative[l] = 0.0;
-    s.rounding[l] = b.a0[l];
-  }
-  for (int k = 1; k <= M; ++k) {
-    const double* re = b.ar + (k - 1) * kRangeBlock;
-    const double* im = b.ai + (k - 1) * kRangeBlock;
-#pragma omp simd
-    for (int l = 0; l < kRangeBlock; ++l) {
-      const double magnitude = std::sqrt(re[l] * re[l] + im[l] * im[l]);
-      s.third_derivative[l] += 2.0 * k * k * k * magnitude;
-      s.rounding[l] += 2.0 * magnitude;
-    }
-  }
-  for (int l = 0; l < kRangeBlock; ++l) s.rounding[l] *= 1e-10;
-  const int bins = t.bins;
-  for (int l = 0; l < lanes; ++l) {
-    const int a = s.lowest[l];
-    if (a < 0) continue;
-    const double d_a = s.minimum_denominator[a];
-    const int bin_a = s.minimum_bin[a];
-    const bool a_near_wrap = bin_a < 2 || bin_a > bins - 3;
-    for (int i = s.lane_begin[l]; i < s.lane_begin[l + 1]; ++i) {
-      if (i == a) continue;
-      if (!(d_a > 0.0)) {  // not a peak: every minimum, as the reference
-        Enqueue<M>(t, b, i, s);
-        continue;
-      }
-      const double bound = LowerBound(t, i, s);
-      const int bin = s.minimum_bin[i];
-      const bool before = a_near_wrap || bin < 2 || bin > bins - 3 || bin < bin_a;
-      if (!(bound > d_a) || (before && !(threshold * bound > d_a))) Enqueue<M>(t, b, i, s);
-    }
-  }
-  if (s.count > 0) RefineBatch<M>(t, b, s);
-}
-
-// Step 4 for lane l over its refined minima (MeseFirstPeakFromGrid's rule): the first peak
-// whose density is at least threshold x the highest.
-__attribute__((always_inline)) inline double ChoosePeak(double threshold, int l,
-                                                        const RangeScratch& s) {
-  const int begin = s.lane_begin[l], end = s.lane_begin[l + 1];
-  double smallest = std::numeric_limits<double>::infinity();
-  for (int i = begin; i < end; ++i) {
+// Step 4 for lane l over its refined minima: MeseFirstReturn, with the lane's grid for the
+// valleys (grid value i + 1 is bin i's).
+__attribute__((always_inline)) inline double ChoosePeak(const RangeTables& t, double threshold,
+                                                        int l, const RangeScratch& s) {
+  absl::InlinedVector<MesePeak, kMaxOrder> peaks;
+  for (int i = s.lane_begin[l]; i < s.lane_begin[l + 1]; ++i) {
     // Not above 0: only underflow, D would be infinite; not a peak (as the reference).
-    if (s.minimum_refined[i] != 0 && s.minimum_denominator[i] > 0.0) {
-      smallest = std::min(smallest, s.minimum_denominator[i]);
-    }
+    if (!(s.minimum_denominator[i] > 0.0)) continue;
+    peaks.push_back({OrderingPhase(s.minimum_phase[i]), s.minimum_denominator[i],
+                     s.minimum_light[i], s.minimum_bin[i]});
   }
-  double first = std::numeric_limits<double>::quiet_NaN();
-  for (int i = begin; i < end; ++i) {
-    const double d = s.minimum_denominator[i];
-    if (s.minimum_refined[i] == 0 || !(d > 0.0) || !(threshold * d <= smallest)) continue;
-    const double phase = OrderingPhase(s.minimum_phase[i]);
-    if (!(phase >= first)) first = phase;
-  }
-  return first;
+  const double* grid = s.grid.data() + static_cast<size_t>(l) * s.grid_stride + 1;
+  return MeseFirstReturn(peaks, threshold, std::span<const double>(grid, t.bins));
 }
 
 template <int M>
@@ -537,22 +458,15 @@ __attribute__((always_inline)) inline void RangeBlockFixed(
   s.minima = 0;
   for (int l = 0; l < lanes; ++l) {
     s.lane_begin[l] = s.minima;
-    s.lowest[l] = -1;
     if (!std::isnan(b.a0[l])) SearchLane<M>(t, b, l, s);
   }
   s.lane_begin[lanes] = s.minima;
-  for (int i = 0; i < s.minima; ++i) s.minimum_refined[i] = 0;
-  if constexpr (M < kPrunedOrder) {
-    // Low orders: too few minima a pixel for the bounds to pay; every one refined.
-    for (int i = 0; i < s.minima; ++i) Enqueue<M>(t, b, i, s);
-    if (s.count > 0) RefineBatch<M>(t, b, s);
-  } else {
-    RefineWhatMatters<M>(t, b, options.threshold, lanes, s);
-  }
+  for (int i = 0; i < s.minima; ++i) Enqueue<M>(t, b, i, s);
+  if (s.count > 0) RefineBatch<M>(t, b, s);
   for (int64_t p = begin; p < end; ++p) {
     range_m[p] = kNaNf;
     if (!solved.valid(p)) continue;
-    const double phase = ChoosePeak(options.threshold, static_cast<int>(p - begin), s);
+    const double phase = ChoosePeak(t, options.threshold, static_cast<int>(p - begin), s);
     if (std::isnan(phase)) {
       flags[p] |= kFlagNoReturn;
     } else {

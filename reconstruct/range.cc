@@ -77,11 +77,8 @@ double MeseFirstPeakFromGrid(std::span<const Complex> q, std::span<const Complex
   std::array<Complex, kMaxMoments> p_storage;
   const std::span<Complex> p(p_storage.data(), q.size());
   for (size_t j = 0; j < q.size(); ++j) p[j] = std::conj(q[j]);
-  struct Peak {
-    double phase, denominator;
-  };
   // A degree-m trigonometric polynomial has at most m minima: no allocation in practice.
-  absl::InlinedVector<Peak, kMaxOrder> peaks;
+  absl::InlinedVector<MesePeak, kMaxOrder> peaks;
   for (int n = 0; n < search_bins; ++n) {
     const double left = r[n == 0 ? search_bins - 1 : n - 1];
     const double right = r[n + 1 == search_bins ? 0 : n + 1];
@@ -89,16 +86,53 @@ double MeseFirstPeakFromGrid(std::span<const Complex> q, std::span<const Complex
     const double phase = RefineMinimum(a, p, n * h, h, left, r[n], right);
     const double denominator = std::norm(EvaluatePolynomial(p, std::polar(1.0, phase)));
     if (!(denominator > 0.0)) continue;  // only underflow can get here: D would be infinite
-    peaks.push_back({OrderingPhase(phase), denominator});
+    peaks.push_back({OrderingPhase(phase), denominator,
+                     MesePeakLight(denominator, EvaluateDenominatorSeries(a, phase).second), n});
   }
+  return MeseFirstReturn(peaks, threshold, r);
+}
+
+double MesePeakLight(double denominator, double second_derivative) {
+  // The pole's term q_0 / (2 pi (A - B cos(phi - phi_0))) with A - B = r and B = r'' at the
+  // peak: its integral over the period is q_0 / sqrt(A^2 - B^2), its floor (at phi_0 + pi)
+  // 2 pi q_0 / (2 pi (A + B)) over the period. Per unit q_0, the light above the floor.
+  const double top = denominator + 2.0 * std::max(second_derivative, 0.0);
+  return 1.0 / std::sqrt(denominator * top) - 1.0 / top;
+}
+
+double MeseFirstReturn(std::span<const MesePeak> peaks, double threshold,
+                       std::span<const double> r) {
   if (peaks.empty()) return std::numeric_limits<double>::quiet_NaN();
   // D = q_0 / (2 pi r): the highest density has the smallest denominator.
-  double smallest = std::numeric_limits<double>::infinity();
-  for (const Peak& peak : peaks) smallest = std::min(smallest, peak.denominator);
+  double smallest = std::numeric_limits<double>::infinity(), brightest = 0.0;
+  for (const MesePeak& peak : peaks) {
+    smallest = std::min(smallest, peak.denominator);
+    brightest = std::max(brightest, peak.light);
+  }
+  const int count = static_cast<int>(peaks.size());
+  const int bins = static_cast<int>(r.size());
+  // The highest grid denominator (the lowest density) from bin `from` up to, not including,
+  // bin `to`, cyclically.
+  const auto valley = [&](int from, int to) {
+    double highest = 0.0;
+    for (int n = from; n != to; n = n + 1 == bins ? 0 : n + 1) highest = std::max(highest, r[n]);
+    return highest;
+  };
   double first = std::numeric_limits<double>::quiet_NaN();
-  for (const Peak& peak : peaks) {
+  for (int i = 0; i < count; ++i) {
+    const MesePeak& peak = peaks[i];
+    if (peak.phase >= first) continue;
     // D_p >= threshold * D_max  <=>  threshold * r_p <= r_min
-    if (threshold * peak.denominator <= smallest && !(peak.phase >= first)) first = peak.phase;
+    bool passes = threshold * peak.denominator <= smallest;
+    if (!passes && count > 1 && peak.light >= threshold * brightest) {
+      // Its light counts where the peak stands apart: the density falls to threshold x its
+      // height or below on both sides before the neighbouring peaks.
+      const int before = peaks[i == 0 ? count - 1 : i - 1].bin;
+      const int after = peaks[i + 1 == count ? 0 : i + 1].bin;
+      passes = peak.denominator <= threshold * valley(before, peak.bin) &&
+               peak.denominator <= threshold * valley(peak.bin, after);
+    }
+    if (passes) first = peak.phase;
   }
   return first;
 }

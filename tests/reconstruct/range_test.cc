@@ -80,6 +80,60 @@ TEST(Range, ExponentiallyModifiedGaussianResponseGivesTheFirstReturn) {
   }
 }
 
+TEST(Range, AWeakEarlyReturnCountsByItsLight) {
+  // Three returns at m = 4: the first, with 0.4 of the others' light, is resolved less sharply
+  // than they are, so its peak is below a tenth of the highest; its light is not.
+  testing::SparseMeasure truth;
+  truth.phase = {1.0, 2.0, 4.0};
+  truth.weight = {0.4, 1.0, 1.0};
+  const std::vector<Complex> q = Solve(truth.Moments(4), 4e-3);
+  const double phase = MeseFirstPeakPhase(q, 0.1, 16 * 5);
+  EXPECT_NEAR(phase, truth.phase[0], 5e-3);  // 5 mm at 23 MHz
+  // The density at the later returns is at most their peaks'.
+  const double highest = std::max(MeseDensity(q, truth.phase[1]), MeseDensity(q, truth.phase[2]));
+  EXPECT_LT(MeseDensity(q, phase), 0.1 * highest) << "the peak's height alone would not pass";
+}
+
+// Peaks on a grid of 64 bins: a low early one at bin 10 and the highest at bin 30.
+std::vector<MesePeak> TwoPeaks(double early_light) {
+  return {{10 * kTwoPi / 64, 50.0, early_light, 10}, {30 * kTwoPi / 64, 1.0, 1.0, 30}};
+}
+std::vector<double> Grid(double valley_before, double valley_after) {
+  std::vector<double> r(64, 100.0);
+  r[10] = 50.0;
+  r[30] = 1.0;
+  r[20] = valley_after;   // between the early peak and the highest
+  r[50] = valley_before;  // between the highest and the early peak, across the wrap
+  return r;
+}
+
+TEST(Range, APeakCountsByItsLightOnlyWhereItStandsApart) {
+  const std::vector<MesePeak> peaks = TwoPeaks(0.2);
+  const double early = peaks[0].phase, highest = peaks[1].phase;
+  // Its density (1/50 of the highest) is below the threshold; its light is 0.2 of the brightest,
+  // and the density falls below a tenth of its height (denominator above 500) on both sides.
+  EXPECT_EQ(MeseFirstReturn(peaks, 0.1, Grid(600.0, 600.0)), early);
+  // A shallow dip on either side: a split peak or a shoulder, not a return of its own.
+  EXPECT_EQ(MeseFirstReturn(peaks, 0.1, Grid(600.0, 400.0)), highest);
+  EXPECT_EQ(MeseFirstReturn(peaks, 0.1, Grid(400.0, 600.0)), highest);
+  // Too little light.
+  EXPECT_EQ(MeseFirstReturn(TwoPeaks(0.05), 0.1, Grid(600.0, 600.0)), highest);
+  // A high enough peak passes by its height, whatever its light.
+  std::vector<MesePeak> high = TwoPeaks(0.0);
+  high[0].denominator = 5.0;
+  EXPECT_EQ(MeseFirstReturn(high, 0.1, Grid(6.0, 6.0)), early);
+  EXPECT_TRUE(std::isnan(MeseFirstReturn({}, 0.1, Grid(600.0, 600.0))));
+}
+
+TEST(Range, PeakLightIsItsPolesIntegralAboveTheFloor) {
+  // r(phi) = A - B cos(phi) with A - B = r, B = r'': 1 / sqrt(A^2 - B^2) - 1 / (A + B).
+  const double r = 0.01, r2 = 3.0, a = r + r2, b = r2;
+  EXPECT_NEAR(MesePeakLight(r, r2), 1.0 / std::sqrt(a * a - b * b) - 1.0 / (a + b), 1e-12);
+  // Broader (a smaller r''), as high: more light. A flat top (r'' = 0): none above the floor.
+  EXPECT_GT(MesePeakLight(r, 1.0), MesePeakLight(r, 3.0));
+  EXPECT_NEAR(MesePeakLight(r, 0.0), 0.0, 1e-9);
+}
+
 TEST(Range, ReturnAtTheCameraIsFirstOnEitherSideOfTheWrap) {
   // A strong return at phi = 0 lands a hair below 2*pi after biasing; it must still be first.
   for (double at : {1e-6, 0.0, kTwoPi - 1e-6}) {

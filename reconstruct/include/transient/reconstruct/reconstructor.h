@@ -83,7 +83,9 @@ void BoundSlices(const SolvedImage& solved, double r, std::span<const double> ph
 
 struct RangeOptions {
   double base_frequency_hz = 23e6;
-  double threshold = 0.1;  // relative to the pixel's highest density / largest weight
+  // Relative to the pixel's highest density or, for a MESE peak that stands apart, the
+  // brightest peak's light (MeseFirstPeakPhase); to the largest weight of a Pisarenko return.
+  double threshold = 0.1;
   // Grid on which MESE peaks are searched before Newton refinement. 0 = automatic:
   // 16 (m+1) phases, 8x the Nyquist rate of the degree-m denominator, so that every minimum
   // of it shows on the grid unless another lies within 2*pi/(16 (m+1)).
@@ -93,7 +95,7 @@ struct RangeOptions {
   int SearchBins(int order) const { return search_bins > 0 ? search_bins : 16 * (order + 1); }
 };
 
-// Range of the first MESE peak above the threshold (thesis §8.4.3), metres; NaN and
+// Range of the first MESE return by MeseFirstPeakPhase's rule (thesis §8.4.3), metres; NaN and
 // kFlagNoReturn in `flags` where there is none. `range_m` and `flags` have one entry per pixel.
 void MeseRange(const SolvedImage& solved, const RangeOptions& options, std::span<float> range_m,
                std::span<uint8_t> flags);
