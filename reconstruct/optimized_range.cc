@@ -432,9 +432,10 @@ __attribute__((always_inline)) inline void SearchLane(const RangeTables& t, cons
 }
 
 // Step 4 for lane l over its refined minima: MeseFirstReturn, with the lane's grid for the
-// valleys (grid value i + 1 is bin i's).
-__attribute__((always_inline)) inline double ChoosePeak(const RangeTables& t, double threshold,
-                                                        int l, const RangeScratch& s) {
+// valleys (grid value i + 1 is bin i's). Scalar and the same for every order and instruction
+// set: one copy, called from the clones rather than inlined into each.
+__attribute__((noinline)) double ChoosePeak(const RangeTables& t, double threshold, int l,
+                                            const RangeScratch& s) {
   absl::InlinedVector<MesePeak, kMaxOrder> peaks;
   for (int i = s.lane_begin[l]; i < s.lane_begin[l + 1]; ++i) {
     // Not above 0: only underflow, D would be infinite; not a peak (as the reference).
