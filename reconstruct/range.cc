@@ -96,7 +96,8 @@ double MesePeakLight(double denominator, double second_derivative) {
   // The pole's term q_0 / (2 pi (A - B cos(phi - phi_0))) with A - B = r and B = r'' at the
   // peak: its integral over the period is q_0 / sqrt(A^2 - B^2), its floor (at phi_0 + pi)
   // 2 pi q_0 / (2 pi (A + B)) over the period. Per unit q_0, the light above the floor.
-  const double top = denominator + 2.0 * std::max(second_derivative, 0.0);
+  // (A curvature that is not positive, NaN included, gives a flat top: no light above it.)
+  const double top = denominator + 2.0 * (second_derivative > 0.0 ? second_derivative : 0.0);
   return 1.0 / std::sqrt(denominator * top) - 1.0 / top;
 }
 
@@ -124,7 +125,7 @@ double MeseFirstReturn(std::span<const MesePeak> peaks, double threshold,
     if (peak.phase >= first) continue;
     // D_p >= threshold * D_max  <=>  threshold * r_p <= r_min
     bool passes = threshold * peak.denominator <= smallest;
-    if (!passes && count > 1 && peak.light >= threshold * brightest) {
+    if (!passes && count > 1 && peak.light > 0.0 && peak.light >= threshold * brightest) {
       // Its light counts where the peak stands apart: the density falls to threshold x its
       // height or below on both sides before the neighbouring peaks.
       const int before = peaks[i == 0 ? count - 1 : i - 1].bin;

@@ -123,6 +123,10 @@ TEST(Range, APeakCountsByItsLightOnlyWhereItStandsApart) {
   high[0].denominator = 5.0;
   EXPECT_EQ(MeseFirstReturn(high, 0.1, Grid(6.0, 6.0)), early);
   EXPECT_TRUE(std::isnan(MeseFirstReturn({}, 0.1, Grid(600.0, 600.0))));
+  // Peaks without light (a flat top) never pass by it, even when none has any.
+  std::vector<MesePeak> dark = TwoPeaks(0.0);
+  dark[1].light = 0.0;
+  EXPECT_EQ(MeseFirstReturn(dark, 0.1, Grid(600.0, 600.0)), highest);
 }
 
 TEST(Range, PeakLightIsItsPolesIntegralAboveTheFloor) {
@@ -132,6 +136,7 @@ TEST(Range, PeakLightIsItsPolesIntegralAboveTheFloor) {
   // Broader (a smaller r''), as high: more light. A flat top (r'' = 0): none above the floor.
   EXPECT_GT(MesePeakLight(r, 1.0), MesePeakLight(r, 3.0));
   EXPECT_NEAR(MesePeakLight(r, 0.0), 0.0, 1e-9);
+  EXPECT_NEAR(MesePeakLight(r, std::nan("")), 0.0, 1e-9);
 }
 
 TEST(Range, ReturnAtTheCameraIsFirstOnEitherSideOfTheWrap) {
