@@ -123,6 +123,13 @@ TEST(Range, APeakCountsByItsLightOnlyWhereItStandsApart) {
   high[0].denominator = 5.0;
   EXPECT_EQ(MeseFirstReturn(high, 0.1, Grid(6.0, 6.0)), early);
   EXPECT_TRUE(std::isnan(MeseFirstReturn({}, 0.1, Grid(600.0, 600.0))));
+  // Bins outside the grid (a caller's mistake): no valleys read, the choice by height alone.
+  std::vector<MesePeak> outside = peaks;
+  outside[1].bin = 64;
+  EXPECT_EQ(MeseFirstReturn(outside, 0.1, Grid(600.0, 600.0)), highest);
+  outside[1].bin = -1;
+  EXPECT_EQ(MeseFirstReturn(outside, 0.1, Grid(600.0, 600.0)), highest);
+  EXPECT_EQ(MeseFirstReturn(peaks, 0.1, {}), highest);
   // Peaks without light (a flat top) never pass by it, even when none has any.
   std::vector<MesePeak> dark = TwoPeaks(0.0);
   dark[1].light = 0.0;

@@ -55,6 +55,7 @@ double MesePeakLight(double denominator, double second_derivative);
 // `r`, whose values between the peaks give the valleys. A weak early return that the moments
 // resolve less sharply than a later one has a low peak but its light; a peak split off by
 // noise, or a broad lobe, does not stand apart from its neighbour (transient eval: docs/eval.md).
+// A peak whose bin, or a neighbour's, lies outside `r` passes by its height only.
 double MeseFirstReturn(std::span<const MesePeak> peaks, double threshold,
                        std::span<const double> r);
 
