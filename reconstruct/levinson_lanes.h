@@ -34,10 +34,7 @@ __attribute__((always_inline)) inline Vm LevinsonLanes(Vd c0, const Vd* cr, cons
     const Vd norm = dr * dr + di * di;
     if (kIndefiniteLast && l == M) {
       const Vm past = (norm > one) & Finite(norm);
-      // Named, not `ok &= (norm < one) | past`: that form is an internal compiler error in
-      // GCC 12 (do_store_flag, expr.cc:12639) for x86-64-v4 in a function of its own.
-      const Vm below = norm < one;  // also false for NaN
-      ok &= below | past;
+      ok &= (norm < one) | past;  // also false for NaN
       *indefinite = past;
     } else {
       ok &= norm < one;  // also false for NaN

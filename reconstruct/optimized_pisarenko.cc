@@ -1137,56 +1137,39 @@ TRANSIENT_LANE_INLINE void PolishQueued(const SolvedImage& solved, const Pisaren
 // Pixels [p, end) of order M, whole vectors of them in chunks: step 1 for the chunk, then steps 2
 // and 3 vector by vector, then the polish for the lanes that need it. Returns the first pixel
 // left, fewer than a vector before `end`.
-// The whole vectors of pixels [*p, end) of order M, *p left at the first pixel not done.
 template <int M>
-TRANSIENT_LANE_INLINE void PisarenkoChunks(const SolvedImage& solved,
-                                           const PisarenkoSearchGrid& grid, int64_t* p, int64_t end,
-                                           PisarenkoImage* result, int64_t* decided) {
-  while (*p + kLanes <= end) {
+TRANSIENT_LANE_INLINE int64_t PisarenkoChunks(const SolvedImage& solved,
+                                              const PisarenkoSearchGrid& grid, int64_t p,
+                                              int64_t end, PisarenkoImage* result,
+                                              int64_t* decided) {
+  while (p + kLanes <= end) {
     LambdaChunk<M> chunk;
     const int count =
-        static_cast<int>(std::min<int64_t>(LambdaChunk<M>::kSize, (end - *p) / kLanes * kLanes));
-    LambdaMinChunk<M>(solved, *p, count, &chunk);
+        static_cast<int>(std::min<int64_t>(LambdaChunk<M>::kSize, (end - p) / kLanes * kLanes));
+    LambdaMinChunk<M>(solved, p, count, &chunk);
     PolishQueue<M> polish;
     for (int o = 0; o < count; o += kLanes) {
-      FinishLanes<M>(solved, grid, chunk, o, *p + o, &polish, result, decided);
+      FinishLanes<M>(solved, grid, chunk, o, p + o, &polish, result, decided);
     }
     PolishQueued<M>(solved, grid, &polish, result, decided);
-    *p += count;
+    p += count;
   }
+  return p;
 }
 
-// Orders up to 8 in lanes, each order a function of its own per instruction set, as in the other
-// vector kernels (Clang under the sanitizers compiles the file in 37 s instead of 54 s with the
-// orders inlined into one function). Each order compiled costs compile time, so under the
-// sanitizers, where compile time counts and speed does not, only the orders the kernel tests
-// run (1, 3, 4 and 8): the others are the same template.
-#define TRANSIENT_PISARENKO_ORDER(M)                                                               \
-  TRANSIENT_SIMD_VARIANTS(PisarenkoChunks##M, PisarenkoChunks<M>,                                  \
-                          (const SolvedImage& solved, const PisarenkoSearchGrid& grid, int64_t* p, \
-                           int64_t end, PisarenkoImage* result, int64_t* decided),                 \
-                          (solved, grid, p, end, result, decided))
-TRANSIENT_PISARENKO_ORDER(1)
-TRANSIENT_PISARENKO_ORDER(3)
-TRANSIENT_PISARENKO_ORDER(4)
-TRANSIENT_PISARENKO_ORDER(8)
-#if !defined(TRANSIENT_SIMD_BASELINE_ONLY)
-TRANSIENT_PISARENKO_ORDER(2)
-TRANSIENT_PISARENKO_ORDER(5)
-TRANSIENT_PISARENKO_ORDER(6)
-TRANSIENT_PISARENKO_ORDER(7)
-#endif
-#undef TRANSIENT_PISARENKO_ORDER
-
-// Whole vectors in lanes for the orders compiled above; the rest per pixel: higher orders,
-// and the last pixels of the range, fewer than a vector.
-void PisarenkoBlockLanes(const SolvedImage& solved, const PisarenkoSearchGrid& grid, int64_t begin,
-                         int64_t end, PisarenkoImage* result, int64_t* decided) {
+TRANSIENT_LANE_INLINE void PisarenkoBlockAnyOrder(const SolvedImage& solved,
+                                                  const PisarenkoSearchGrid& grid, int64_t begin,
+                                                  int64_t end, PisarenkoImage* result,
+                                                  int64_t* decided) {
   int64_t p = begin;
+  // Orders up to 8 in lanes (each order compiled costs compile time, ~9 s of Clang under the
+  // sanitizers); above, per pixel. Whole vectors only; the last pixels of the range, fewer than
+  // a vector, per pixel. Under the sanitizers, where compile time counts and speed does not,
+  // only the orders the kernel tests run (1, 3, 4 and 8): the others are the same template.
   switch (solved.order) {
-#define TRANSIENT_PISARENKO_CASE(M)                             \
-  case M:                                                       \
-    PisarenkoChunks##M(solved, grid, &p, end, result, decided); \
+#define TRANSIENT_PISARENKO_CASE(M)                                \
+  case M:                                                          \
+    p = PisarenkoChunks<M>(solved, grid, p, end, result, decided); \
     break;
     TRANSIENT_PISARENKO_CASE(1)
     TRANSIENT_PISARENKO_CASE(3)
@@ -1204,6 +1187,11 @@ void PisarenkoBlockLanes(const SolvedImage& solved, const PisarenkoSearchGrid& g
   }
   internal::PisarenkoPixels(solved, p, end, result, &grid);
 }
+
+TRANSIENT_SIMD_VARIANTS(PisarenkoBlockLanes, PisarenkoBlockAnyOrder,
+                        (const SolvedImage& solved, const PisarenkoSearchGrid& grid, int64_t begin,
+                         int64_t end, PisarenkoImage* result, int64_t* decided),
+                        (solved, grid, begin, end, result, decided))
 
 #undef TRANSIENT_LANE_INLINE
 

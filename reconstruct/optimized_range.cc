@@ -486,35 +486,14 @@ int PaddedOrder(int m) { return m <= 4 ? 4 : m <= 8 ? 8 : 16; }
 int PaddedOrder(int m) { return m <= 6 ? m : m <= 8 ? 8 : m <= 12 ? 12 : 16; }
 #endif
 
-// Every padded order, as one function per order and instruction set: GCC's passes after
-// register allocation grow faster than a function's size, and the file compiles in 26 s of GCC
-// instead of 69 s with every order inlined into one function per instruction set.
-#define TRANSIENT_RANGE_ORDER(M)                                                                 \
-  TRANSIENT_SIMD_VARIANTS(RangeBlock##M, RangeBlockFixed<M>,                                     \
-                          (const SolvedImage& solved, const RangeTables& t,                      \
-                           const RangeOptions& options, int64_t begin, int64_t end,              \
-                           std::span<float> range_m, std::span<uint8_t> flags, RangeScratch& s), \
-                          (solved, t, options, begin, end, range_m, flags, s))
-#if !defined(TRANSIENT_SIMD_BASELINE_ONLY)
-TRANSIENT_RANGE_ORDER(1)
-TRANSIENT_RANGE_ORDER(2)
-TRANSIENT_RANGE_ORDER(3)
-TRANSIENT_RANGE_ORDER(5)
-TRANSIENT_RANGE_ORDER(6)
-TRANSIENT_RANGE_ORDER(12)
-#endif
-TRANSIENT_RANGE_ORDER(4)
-TRANSIENT_RANGE_ORDER(8)
-TRANSIENT_RANGE_ORDER(16)
-#undef TRANSIENT_RANGE_ORDER
-
-void RangeBlock(const SolvedImage& solved, const RangeTables& t, const RangeOptions& options,
-                int64_t begin, int64_t end, std::span<float> range_m, std::span<uint8_t> flags,
-                RangeScratch& s) {
+// Every padded order, as one function per instruction set.
+__attribute__((always_inline)) inline void RangeBlockAnyOrder(
+    const SolvedImage& solved, const RangeTables& t, const RangeOptions& options, int64_t begin,
+    int64_t end, std::span<float> range_m, std::span<uint8_t> flags, RangeScratch& s) {
   switch (PaddedOrder(solved.order)) {
 #define TRANSIENT_RANGE_CASE(M) \
   case M:                       \
-    return RangeBlock##M(solved, t, options, begin, end, range_m, flags, s);
+    return RangeBlockFixed<M>(solved, t, options, begin, end, range_m, flags, s);
 #if !defined(TRANSIENT_SIMD_BASELINE_ONLY)
     TRANSIENT_RANGE_CASE(1)
     TRANSIENT_RANGE_CASE(2)
@@ -530,6 +509,12 @@ void RangeBlock(const SolvedImage& solved, const RangeTables& t, const RangeOpti
   }
   assert(false && "order outside 1..kMaxOrder");
 }
+
+TRANSIENT_SIMD_VARIANTS(RangeBlock, RangeBlockAnyOrder,
+                        (const SolvedImage& solved, const RangeTables& t,
+                         const RangeOptions& options, int64_t begin, int64_t end,
+                         std::span<float> range_m, std::span<uint8_t> flags, RangeScratch& s),
+                        (solved, t, options, begin, end, range_m, flags, s))
 
 }  // namespace
 

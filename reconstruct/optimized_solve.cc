@@ -83,55 +83,38 @@ __attribute__((always_inline)) inline void SolveLanes(const MomentImage& moments
   }
 }
 
-// The whole vectors of pixels [*p, end) of order M, *p left at the first pixel not done.
-template <int M>
-__attribute__((always_inline)) inline void SolveChunks(const MomentImage& moments,
-                                                       const SolveOptions& options, int64_t* p,
-                                                       int64_t end, SolvedImage* solved) {
-  for (; *p + kLanes <= end; *p += kLanes) SolveLanes<M>(moments, options, *p, solved);
-}
-
-// Orders up to 8 in lanes, each a function of its own per instruction set (GCC compiles the file
-// in 14 s instead of 25 s with every order inlined into one function; each order's share grows
-// as m^2); above, the per-pixel path.
-#define TRANSIENT_SOLVE_ORDER(M)                                                                \
-  TRANSIENT_SIMD_VARIANTS(SolveChunks##M, SolveChunks<M>,                                       \
-                          (const MomentImage& moments, const SolveOptions& options, int64_t* p, \
-                           int64_t end, SolvedImage* solved),                                   \
-                          (moments, options, p, end, solved))
-TRANSIENT_SOLVE_ORDER(1)
-TRANSIENT_SOLVE_ORDER(2)
-TRANSIENT_SOLVE_ORDER(3)
-TRANSIENT_SOLVE_ORDER(4)
-TRANSIENT_SOLVE_ORDER(5)
-TRANSIENT_SOLVE_ORDER(6)
-TRANSIENT_SOLVE_ORDER(7)
-TRANSIENT_SOLVE_ORDER(8)
-#undef TRANSIENT_SOLVE_ORDER
-
-void SolveBlock(const MomentImage& moments, const SolveOptions& options, int64_t begin, int64_t end,
-                SolvedImage* solved) {
+__attribute__((always_inline)) inline void SolveBlockAnyOrder(const MomentImage& moments,
+                                                              const SolveOptions& options,
+                                                              int64_t begin, int64_t end,
+                                                              SolvedImage* solved) {
   int64_t p = begin;
-  switch (moments.order) {
-#define TRANSIENT_SOLVE_CASE(M)                        \
-  case M:                                              \
-    SolveChunks##M(moments, options, &p, end, solved); \
+  // Orders up to 8 in lanes (each order compiled costs compile time, growing as m^2); above,
+  // the per-pixel path.
+  for (; moments.order <= 8 && p + kLanes <= end; p += kLanes) {
+    switch (moments.order) {
+#define TRANSIENT_SOLVE_CASE(M)                           \
+  case M:                                                 \
+    SolveLanes<M>(moments, options, p, solved);           \
     break;
-    TRANSIENT_SOLVE_CASE(1)
-    TRANSIENT_SOLVE_CASE(2)
-    TRANSIENT_SOLVE_CASE(3)
-    TRANSIENT_SOLVE_CASE(4)
-    TRANSIENT_SOLVE_CASE(5)
-    TRANSIENT_SOLVE_CASE(6)
-    TRANSIENT_SOLVE_CASE(7)
-    TRANSIENT_SOLVE_CASE(8)
+      TRANSIENT_SOLVE_CASE(1)
+      TRANSIENT_SOLVE_CASE(2)
+      TRANSIENT_SOLVE_CASE(3)
+      TRANSIENT_SOLVE_CASE(4)
+      TRANSIENT_SOLVE_CASE(5)
+      TRANSIENT_SOLVE_CASE(6)
+      TRANSIENT_SOLVE_CASE(7)
+      TRANSIENT_SOLVE_CASE(8)
 #undef TRANSIENT_SOLVE_CASE
-    default:
-      break;
+    }
   }
-  // The last pixels of the block, fewer than a vector (all of them above order 8).
+  // The last pixels of the block, fewer than a vector.
   internal::SolvePixels(moments, options, /*quick_bias_check=*/true, p, end, solved);
 }
+
+TRANSIENT_SIMD_VARIANTS(SolveBlock, SolveBlockAnyOrder,
+                        (const MomentImage& moments, const SolveOptions& options, int64_t begin,
+                         int64_t end, SolvedImage* solved),
+                        (moments, options, begin, end, solved))
 
 }  // namespace
 
