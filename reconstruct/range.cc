@@ -128,8 +128,8 @@ double MeseFirstReturn(std::span<const MesePeak> peaks, double threshold,
     if (!passes && count > 1 && peak.light > 0.0 && peak.light >= threshold * brightest) {
       // Its light counts where the peak stands apart: the density falls to threshold x its
       // height or below on both sides before the neighbouring peaks.
-      // (A bin outside the grid, which only a caller's mistake gives, never passes: the
-      // valleys would be read out of it.)
+      // (A bin outside the grid, which only a caller's mistake gives, never passes by light:
+      // the valleys would be read out of it.)
       const int before = peaks[i == 0 ? count - 1 : i - 1].bin;
       const int after = peaks[i + 1 == count ? 0 : i + 1].bin;
       const auto on_grid = [bins](int bin) { return bin >= 0 && bin < bins; };
