@@ -92,7 +92,8 @@ struct UnwrapOutputs {
   float* confidence;
   uint8_t* flags;
 };
-// UnwrapImage's per-pixel loop for pixels [begin, end), eight at a time (optimized_unwrap.cc).
+// UnwrapImage's per-pixel loop for pixels [begin, end), eight or four at a time
+// (optimized_unwrap.cc).
 void UnwrapPixels(const MomentImage& moments, const UnwrapOptions& options, int64_t begin,
                   int64_t end, UnwrapOutputs out);
 
@@ -112,9 +113,10 @@ void SolvePixels(const MomentImage& moments, const SolveOptions& options, bool q
 void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end, PisarenkoImage* result,
                      const PisarenkoSearchGrid* grid = nullptr);
 // The optimized kernels' Pisarenko of pixels [begin, end): for orders up to 8 (under the
-// sanitizers 1, 3, 4 and 8), eight pixels at a time in SIMD lanes by PisarenkoByLevinson's route
-// (optimized_pisarenko.cc); the pixels the lanes cannot vouch for, the last ones of the block and
-// other orders by PisarenkoPixels with `grid`. Returns how many pixels the lanes decided.
+// sanitizers 1, 3, 4 and 8), eight or four pixels at a time in SIMD lanes (kernels_simd.h) by
+// PisarenkoByLevinson's route (optimized_pisarenko.cc); the pixels the lanes cannot vouch for, the
+// last ones of the block and other orders by PisarenkoPixels with `grid`. Returns how many pixels
+// the lanes decided.
 int64_t PisarenkoBlock(const SolvedImage& solved, const PisarenkoSearchGrid& grid, int64_t begin,
                        int64_t end, PisarenkoImage* result);
 // With the phases' cosines and sines, by MeseCumulative::Evaluate (the optimized kernels);

@@ -1,61 +1,25 @@
-// Eight doubles at a time in GCC's generic vectors (also understood by Clang), for the
-// optimized kernels' per-pixel work that the auto-vectorizer does not take on (Newton steps
-// with per-lane masks, Levinson's recursion). A kernel is compiled once per instruction set
-// (TRANSIENT_SIMD_VARIANTS below): one AVX-512 register, two AVX2 ones or four SSE2 ones per
-// vector. Not with target_clones: GCC 12 lowers a clone's generic vector comparisons for the
-// baseline instruction set, one scalar comparison per lane. Include this header only from
-// kernel sources, and call these helpers only from always_inline code: they pass vectors by
-// value, whose calling convention differs between instruction sets (hence -Wpsabi off).
+// SIMD lanes of doubles in GCC's generic vectors (also understood by Clang), for the optimized
+// kernels' per-pixel work that the auto-vectorizer does not take on (Newton steps with per-lane
+// masks, Levinson's recursion), one pixel or candidate a lane. A kernel is compiled once per
+// instruction set (TRANSIENT_SIMD_VARIANTS below): AVX-512 with eight lanes (one register a
+// vector), AVX2 with four (one register), the baseline with eight (four SSE2 registers). The
+// lane code is written once, in a `*_lanes.inc` file that the kernel's source includes into a
+// namespace per lane count, `lanes8` and `lanes4`, each after `kLanes` and simd_lanes.inc (the
+// vector types and their helpers). On the AVX2 VM eight lanes as two AVX2 registers ran
+// 1.4-4.2x slower than four as one (docs/speed.md): the kernels keep more vectors live than
+// AVX2's sixteen registers hold, and spilled them. The baseline keeps eight: with four, GCC took
+// 265 s to compile its Pisarenko lanes against 70 s (one run each), and it runs only on CPUs
+// without AVX2. Not with target_clones: GCC 12 lowers a clone's generic vector comparisons for
+// the baseline instruction set, one scalar comparison per lane. Include the lane files only from
+// kernel sources, and call their helpers only from always_inline code: they pass vectors by
+// value, whose calling convention differs between instruction sets (hence -Wpsabi off there).
 #pragma once
-
-#include <cstdint>
-#include <cstring>
-#include <limits>
-
-#pragma GCC diagnostic ignored "-Wpsabi"  // GCC and Clang both know this name
 
 namespace transient::simd {
 
-inline constexpr int kLanes = 8;
-using Vd = double __attribute__((vector_size(kLanes * sizeof(double))));
-using Vm = int64_t __attribute__((vector_size(kLanes * sizeof(int64_t))));  // a comparison
-
-__attribute__((always_inline)) inline Vd Load(const double* p) {
-  Vd v;
-  std::memcpy(&v, p, sizeof(v));
-  return v;
-}
-__attribute__((always_inline)) inline void Store(double* p, Vd v) { std::memcpy(p, &v, sizeof(v)); }
-__attribute__((always_inline)) inline Vd Splat(double x) { return Vd{} + x; }
-__attribute__((always_inline)) inline Vm True() { return Vm{} == Vm{}; }
-// yes where mask is set, no elsewhere.
-__attribute__((always_inline)) inline Vd Select(Vm mask, Vd yes, Vd no) {
-  return reinterpret_cast<Vd>((mask & reinterpret_cast<Vm>(yes)) |
-                              (~mask & reinterpret_cast<Vm>(no)));
-}
-__attribute__((always_inline)) inline Vd Abs(Vd x) {
-  return reinterpret_cast<Vd>(reinterpret_cast<Vm>(x) & (Vm{} + 0x7fffffffffffffff));
-}
-// The square root of every lane (one vsqrtpd where the instruction set has it).
-__attribute__((always_inline)) inline Vd Sqrt(Vd x) {
-  Vd root;
-  for (int i = 0; i < kLanes; ++i) root[i] = __builtin_sqrt(x[i]);
-  return root;
-}
-// Finite lanes (not NaN, not infinite).
-__attribute__((always_inline)) inline Vm Finite(Vd x) {
-  return Abs(x) <= std::numeric_limits<double>::max();
-}
-__attribute__((always_inline)) inline bool Any(Vm mask) {
-  int64_t any = 0;
-  for (int i = 0; i < kLanes; ++i) any |= mask[i];
-  return any != 0;
-}
-__attribute__((always_inline)) inline bool All(Vm mask) {
-  int64_t all = -1;
-  for (int i = 0; i < kLanes; ++i) all &= mask[i];
-  return all != 0;
-}
+// The most lanes of any instruction set: scratch arrays shared by every lane count are padded
+// by this much.
+inline constexpr int kMaxLanes = 8;
 
 // The instruction sets a kernel is compiled for, best first.
 enum class Level { kX86_64_V4, kX86_64_V3, kBaseline };
@@ -77,25 +41,26 @@ inline Level CpuLevel() {
 }  // namespace transient::simd
 
 // Defines NAME(PARAMS) calling the always_inline BODY(ARGS) compiled for each Level, chosen
-// at the first call by simd::CpuLevel(). Under the sanitizers (TRANSIENT_SIMD_BASELINE_ONLY,
-// set by CMake) only the baseline: the same source, a third of the compile time; the release
-// tests run the vector instruction sets.
+// at the first call by simd::CpuLevel(): x86-64-v4 and the baseline with lanes8::BODY,
+// x86-64-v3 with lanes4::BODY. Under the sanitizers (TRANSIENT_SIMD_BASELINE_ONLY, set by CMake)
+// only the baseline, with lanes8::BODY: a third of the compile time, and the sanitizer tests run
+// the eight-lane code of AVX-512 machines while the release tests run the host's.
 #if defined(TRANSIENT_SIMD_BASELINE_ONLY)
 #define TRANSIENT_SIMD_VARIANTS(NAME, BODY, PARAMS, ARGS) \
-  void NAME PARAMS { BODY ARGS; }
+  void NAME PARAMS { lanes8::BODY ARGS; }
 #else
-#define TRANSIENT_SIMD_VARIANTS(NAME, BODY, PARAMS, ARGS)                 \
-  __attribute__((target("arch=x86-64-v4"))) void NAME##V4 PARAMS { BODY ARGS; } \
-  __attribute__((target("arch=x86-64-v3"))) void NAME##V3 PARAMS { BODY ARGS; } \
-  void NAME##Baseline PARAMS { BODY ARGS; }                                 \
-  void NAME PARAMS {                                                        \
-    switch (::transient::simd::CpuLevel()) {                                \
-      case ::transient::simd::Level::kX86_64_V4:                            \
-        return NAME##V4 ARGS;                                               \
-      case ::transient::simd::Level::kX86_64_V3:                            \
-        return NAME##V3 ARGS;                                               \
-      case ::transient::simd::Level::kBaseline:                             \
-        return NAME##Baseline ARGS;                                         \
-    }                                                                       \
+#define TRANSIENT_SIMD_VARIANTS(NAME, BODY, PARAMS, ARGS)                               \
+  __attribute__((target("arch=x86-64-v4"))) void NAME##V4 PARAMS { lanes8::BODY ARGS; } \
+  __attribute__((target("arch=x86-64-v3"))) void NAME##V3 PARAMS { lanes4::BODY ARGS; } \
+  void NAME##Baseline PARAMS { lanes8::BODY ARGS; }                                     \
+  void NAME PARAMS {                                                                    \
+    switch (::transient::simd::CpuLevel()) {                                            \
+      case ::transient::simd::Level::kX86_64_V4:                                        \
+        return NAME##V4 ARGS;                                                           \
+      case ::transient::simd::Level::kX86_64_V3:                                        \
+        return NAME##V3 ARGS;                                                           \
+      case ::transient::simd::Level::kBaseline:                                         \
+        return NAME##Baseline ARGS;                                                     \
+    }                                                                                   \
   }
 #endif

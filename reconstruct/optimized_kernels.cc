@@ -6,7 +6,8 @@
 //   product followed by a reciprocal, vectorized over pixels; phi, -phi, pi + phi and pi - phi
 //   share one evaluation of the series' even and odd parts (PhaseOrbits), and outputs larger
 //   than the caches are written with streaming stores;
-// - Pisarenko by PisarenkoByLevinson's route, eight pixels at a time in SIMD lanes for m <= 8
+// - Pisarenko by PisarenkoByLevinson's route, eight or four pixels at a time in SIMD lanes for m <=
+// 8
 //   (internal::PisarenkoBlock, optimized_pisarenko.cc), per pixel above and where the lanes
 //   decline, the reference's Pisarenko() where that declines too; the cumulative's logarithms
 //   as real log and atan (MeseCumulative::Evaluate) with the phases' cosines and sines tabled

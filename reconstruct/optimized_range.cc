@@ -6,7 +6,8 @@
 //    p = conj(q) as planes, one SIMD lane per pixel;
 // 2. per pixel, its search grid from shared cos/sin tables (one SIMD lane per phase), and
 //    its local minima, found as set bits, gathered into a batch of candidates;
-// 3. Newton's method on the derivative of the series for eight candidates at once, one lane
+// 3. Newton's method on the derivative of the series for eight or four candidates at once
+// (kernels_simd.h), one lane
 //    per candidate, masked per lane exactly as RefineMinimum of range.cc decides. No
 //    sine or cosine is called: the phase is the grid phase (tabled) plus an offset of at most
 //    one bin, and e^{i offset} is its Taylor polynomial;
@@ -41,18 +42,6 @@ constexpr double kPhaseTolerance = 1e-10;
 // Largest bin width (radians) of the vectorized path: e^{ix} for |x| <= 0.25 is its Taylor
 // polynomial to x^14 within 1e-23 (0.25^15 / 15!).
 constexpr double kMaxRotation = 0.25;
-
-// Eight candidates at a time (kernels_simd.h).
-using simd::Abs;
-using simd::All;
-using simd::Any;
-using simd::kLanes;
-using simd::Load;
-using simd::Select;
-using simd::Splat;
-using simd::Store;
-using simd::Vd;
-using simd::Vm;
 
 // The grid: phases phi_i = (i - 1) h for i = 0..bins+1 (one phase beyond each end, so that
 // the search for minima needs no wrap), h = 2 pi / bins, in rows per k = 1..m:
@@ -126,10 +115,10 @@ struct RangeScratch {
     grid.resize(static_cast<size_t>(grid_stride) * kRangeBlock);
     for (auto* v : {&left, &middle, &right, &center_phase, &center_re, &center_im, &refined_phase,
                     &refined_denominator, &refined_light}) {
-      v->resize(kBatch + kLanes);
+      v->resize(kBatch + simd::kMaxLanes);
     }
-    lane.resize(kBatch + kLanes);
-    target.resize(kBatch + kLanes);
+    lane.resize(kBatch + simd::kMaxLanes);
+    target.resize(kBatch + simd::kMaxLanes);
     // A lane has at most bins/2 grid minima: two neighbours cannot both be one.
     const size_t most = static_cast<size_t>(kRangeBlock) * (t.bins / 2 + 1);
     if (minimum_lane.size() < most) {
@@ -202,235 +191,6 @@ __attribute__((always_inline)) inline void LoadBlock(const SolvedImage& solved, 
   }
 }
 
-// e^{ix} = cos x + i sin x for |x| <= kMaxRotation, by Horner in x^2.
-__attribute__((always_inline)) inline void SmallRotation(Vd x, Vd& c, Vd& s) {
-  const Vd y = -(x * x);
-  c = Splat(1.0 / 87178291200.0);  // 1/14!
-  for (double f : {1.0 / 479001600.0, 1.0 / 3628800.0, 1.0 / 40320.0, 1.0 / 720.0, 1.0 / 24.0,
-                   0.5, 1.0}) {
-    c = c * y + f;
-  }
-  s = Splat(1.0 / 6227020800.0);  // 1/13!
-  for (double f : {1.0 / 39916800.0, 1.0 / 362880.0, 1.0 / 5040.0, 1.0 / 120.0, 1.0 / 6.0}) {
-    s = s * y + f;
-  }
-  s = x + x * (s * y);
-}
-
-// The candidates c..c+7: e^{i phi} at phi = (their bin's phase) + x, |x| <= h.
-struct Units {
-  Vd re, im;
-};
-__attribute__((always_inline)) inline Units UnitsAt(const RangeScratch& s, int c, Vd x) {
-  Vd cx, sx;
-  SmallRotation(x, cx, sx);
-  const Vd cr = Load(&s.center_re[c]), ci = Load(&s.center_im[c]);
-  return {cr * cx - ci * sx, ci * cx + cr * sx};
-}
-
-// The coefficients of eight candidates, gathered once from their pixels' planes and kept in
-// registers through every Newton step.
-template <int M>
-struct Coefficients {
-  Vd ar[M], ai[M];         // a_k, k = 1..m
-  Vd pr[M + 1], pi[M + 1];  // p_j = conj(q_j)
-};
-
-template <int M>
-__attribute__((always_inline)) inline void Gather(const Planes<M>& b, const int32_t* lanes,
-                                                  Coefficients<M>& g) {
-  for (int i = 0; i < kLanes; ++i) {
-    const int l = lanes[i];
-    for (int k = 0; k < M; ++k) {
-      g.ar[k][i] = b.ar[k * kRangeBlock + l];
-      g.ai[k][i] = b.ai[k * kRangeBlock + l];
-    }
-    for (int j = 0; j <= M; ++j) {
-      g.pr[j][i] = b.pr[j * kRangeBlock + l];
-      g.pi[j][i] = b.pi[j * kRangeBlock + l];
-    }
-  }
-}
-
-// |p(z)|^2 by Horner.
-template <int M>
-__attribute__((always_inline)) inline Vd NormOfP(const Coefficients<M>& g, Units z) {
-  Vd vr = g.pr[M], vi = g.pi[M];
-  for (int j = M - 1; j >= 0; --j) {
-    const Vd nr = vr * z.re - vi * z.im + g.pr[j];
-    vi = vr * z.im + vi * z.re + g.pi[j];
-    vr = nr;
-  }
-  return vr * vr + vi * vi;
-}
-
-// Step 3: RefineMinimum of range.cc for every candidate of the batch, eight at a time, then
-// its phase, |p|^2 and light there (MesePeakLight) go to the grid minimum it came from
-// (target).
-template <int M>
-__attribute__((always_inline)) inline void RefineBatch(const RangeTables& t, const Planes<M>& b,
-                                                       RangeScratch& s) {
-  const int count = s.count;
-  for (int c = count; c < count + kLanes; ++c) s.lane[c] = s.lane[0];  // stale: unused
-  const Vd h = Splat(t.h);
-  const Vd zero = Splat(0.0);
-  for (int c = 0; c < count; c += kLanes) {
-    Coefficients<M> g{};  // (zeros first: Gather fills it lane by lane)
-    Gather<M>(b, &s.lane[c], g);
-    Vd offset = zero;
-    Vm active = zero == zero, converged = zero != zero;
-    for (int step = 0; step < kNewtonSteps && Any(active); ++step) {
-      const Units z = UnitsAt(s, c, offset);
-      // The series' first and second derivatives (EvaluateDenominatorSeries).
-      Vd wr = z.re, wi = z.im, first = zero, second = zero;
-      for (int k = 1; k <= M; ++k) {
-        const Vd are = g.ar[k - 1], aim = g.ai[k - 1];
-        const Vd tr = are * wr - aim * wi, ti = are * wi + aim * wr;
-        first -= (2.0 * k) * ti;
-        second -= (2.0 * k * k) * tr;
-        const Vd nr = wr * z.re - wi * z.im;
-        wi = wr * z.im + wi * z.re;
-        wr = nr;
-      }
-      const Vd delta = -first / second;
-      const Vd moved = offset + delta;
-      const Vm stepping = active & (second > zero);
-      const Vm inside = Abs(moved) <= h;
-      const Vm done = Abs(delta) < kPhaseTolerance;
-      offset = Select(stepping, moved, offset);
-      converged |= stepping & inside & done;
-      active = stepping & inside & ~done;
-    }
-    // Unless Newton converged: its phase if it moved, stayed within the bin and went down;
-    // else the vertex of the parabola through the three grid values.
-    const Vm inside = Abs(offset) <= h;
-    const Vd lower = NormOfP<M>(g, UnitsAt(s, c, Select(inside, offset, zero)));
-    const Vd left = Load(&s.left[c]), middle = Load(&s.middle[c]), right = Load(&s.right[c]);
-    const Vm accept = converged | ((offset != zero) & inside & (lower <= middle));
-    const Vd curvature = left - 2.0 * middle + right;
-    Vd vertex = Select(curvature > zero, 0.5 * (left - right) / curvature, zero);
-    vertex = Select(vertex < -1.0, Splat(-1.0), Select(vertex > 1.0, Splat(1.0), vertex));
-    const Vd x = Select(accept, offset, vertex * h);
-    // Where accepted, x is the phase `lower` was evaluated at: |p|^2 there is `lower`.
-    Vd denominator = lower;
-    const Units z = UnitsAt(s, c, x);
-    if (!All(accept)) denominator = Select(accept, lower, NormOfP<M>(g, z));
-    // The series' second derivative at x, -2 sum_k k^2 Re(a_k e^{ik phi}), and the light.
-    Vd wr = z.re, wi = z.im, second = zero;
-    for (int k = 1; k <= M; ++k) {
-      second -= (2.0 * k * k) * (g.ar[k - 1] * wr - g.ai[k - 1] * wi);
-      const Vd nr = wr * z.re - wi * z.im;
-      wi = wr * z.im + wi * z.re;
-      wr = nr;
-    }
-    const Vd top = denominator + 2.0 * Select(second > zero, second, zero);
-    Store(&s.refined_light[c], 1.0 / simd::Sqrt(denominator * top) - 1.0 / top);
-    Store(&s.refined_denominator[c], denominator);
-    Store(&s.refined_phase[c], Load(&s.center_phase[c]) + x);
-  }
-  // Plain loops in the clones: Clang 15 emits no library template that only they instantiate.
-  for (int c = 0; c < count; ++c) {
-    const int i = s.target[c];
-    s.minimum_phase[i] = s.refined_phase[c];
-    s.minimum_denominator[i] = s.refined_denominator[c];
-    s.minimum_light[i] = s.refined_light[c];
-  }
-  s.count = 0;
-}
-
-// Adds grid minimum i to the batch, refining the batch when it is full.
-template <int M>
-__attribute__((always_inline)) inline void Enqueue(const RangeTables& t, const Planes<M>& b, int i,
-                                                   RangeScratch& s) {
-  const int n = s.minimum_bin[i];
-  const int c = s.count++;
-  s.target[c] = i;
-  s.lane[c] = s.minimum_lane[i];
-  s.left[c] = s.minimum_left[i];
-  s.middle[c] = s.minimum_middle[i];
-  s.right[c] = s.minimum_right[i];
-  s.center_phase[c] = n * t.h;
-  s.center_re[c] = t.cos_n[n];
-  s.center_im[c] = t.sin_n[n];
-  if (s.count == kBatch) RefineBatch<M>(t, b, s);
-}
-
-// Step 2: the grid of lane l (vectorized over phases) and its local minima (r[n] < r[n-1] and
-// r[n] <= r[n+1], cyclically, as MeseFirstPeakFromGrid), added to the batch.
-template <int M>
-__attribute__((always_inline)) inline void SearchLane(const RangeTables& t, const Planes<M>& b,
-                                                      int l, RangeScratch& s) {
-  double are[M], aim[M];
-  for (int k = 0; k < M; ++k) {
-    are[k] = b.ar[k * kRangeBlock + l];
-    aim[k] = b.ai[k * kRangeBlock + l];
-  }
-  const double a0 = b.a0[l];
-  double* grid = s.grid.data() + static_cast<size_t>(l) * s.grid_stride;
-  const int stride = t.stride;  // a whole number of vectors, at least bins + 2
-  const double* c2 = t.c2.data();
-  const double* s2 = t.s2.data();
-  Vd cr[M], ci[M];
-  for (int k = 0; k < M; ++k) {
-    cr[k] = Splat(are[k]);
-    ci[k] = Splat(aim[k]);
-  }
-  // Two vectors at a time: two independent chains of additions.
-  int i = 0;
-  for (; i + 2 * kLanes <= stride; i += 2 * kLanes) {
-    Vd r0 = Splat(a0), r1 = r0;
-#pragma GCC unroll 16
-    for (int k = 0; k < M; ++k) {
-      const double* c = c2 + k * stride + i;
-      const double* z = s2 + k * stride + i;
-      r0 += cr[k] * Load(c) + ci[k] * Load(z);
-      r1 += cr[k] * Load(c + kLanes) + ci[k] * Load(z + kLanes);
-    }
-    Store(grid + i, r0);
-    Store(grid + i + kLanes, r1);
-  }
-  for (; i < stride; i += kLanes) {
-    Vd r = Splat(a0);
-#pragma GCC unroll 16
-    for (int k = 0; k < M; ++k) {
-      r += cr[k] * Load(c2 + k * stride + i) + ci[k] * Load(s2 + k * stride + i);
-    }
-    Store(grid + i, r);
-  }
-  // Minima as one byte per bin (a loop the compiler vectorizes, over whole vectors of 32
-  // bins: the grid has room for them), then read eight bins at once; bytes past bins are 0.
-  const int bins = t.bins;
-  const int padded = static_cast<int>(s.minimum.size());
-  uint8_t* minimum = s.minimum.data();
-#pragma omp simd
-  for (int n = 0; n < padded; ++n) {
-    minimum[n] =
-        static_cast<uint8_t>((grid[n + 1] < grid[n]) & (grid[n + 1] <= grid[n + 2]) & (n < bins));
-  }
-  const int start = s.minima;
-  int32_t* lane_of = s.minimum_lane.data() + start;
-  int32_t* bin_of = s.minimum_bin.data() + start;
-  double* left = s.minimum_left.data() + start;
-  double* middle = s.minimum_middle.data() + start;
-  double* right = s.minimum_right.data() + start;
-  int c = 0;
-  for (int w = 0; w < bins; w += 8) {
-    uint64_t bits;  // bin w + i is a minimum iff byte i is 1
-    std::memcpy(&bits, minimum + w, sizeof(bits));
-    while (bits != 0) {
-      const int n = w + __builtin_ctzll(bits) / 8;
-      bits &= bits - 1;
-      lane_of[c] = l;
-      bin_of[c] = n;
-      left[c] = grid[n];
-      middle[c] = grid[n + 1];
-      right[c] = grid[n + 2];
-      ++c;
-    }
-  }
-  s.minima = start + c;
-}
-
 // Step 4 for lane l over its refined minima: MeseFirstReturn, with the lane's grid for the
 // valleys (grid value i + 1 is bin i's). Scalar and the same for every order and instruction
 // set: one copy, called from the clones rather than inlined into each.
@@ -447,35 +207,6 @@ __attribute__((noinline)) double ChoosePeak(const RangeTables& t, double thresho
   return MeseFirstReturn(peaks, threshold, std::span<const double>(grid, t.bins));
 }
 
-template <int M>
-__attribute__((always_inline)) inline void RangeBlockFixed(
-    const SolvedImage& solved, const RangeTables& t, const RangeOptions& options, int64_t begin,
-    int64_t end, std::span<float> range_m, std::span<uint8_t> flags, RangeScratch& s) {
-  s.Reserve(M, t);
-  const Planes<M> b = PlanesIn<M>(s.planes.data(), kRangeBlock);
-  LoadBlock<M>(solved, begin, end, b);
-  const int lanes = static_cast<int>(end - begin);
-  s.count = 0;
-  s.minima = 0;
-  for (int l = 0; l < lanes; ++l) {
-    s.lane_begin[l] = s.minima;
-    if (!std::isnan(b.a0[l])) SearchLane<M>(t, b, l, s);
-  }
-  s.lane_begin[lanes] = s.minima;
-  for (int i = 0; i < s.minima; ++i) Enqueue<M>(t, b, i, s);
-  if (s.count > 0) RefineBatch<M>(t, b, s);
-  for (int64_t p = begin; p < end; ++p) {
-    range_m[p] = kNaNf;
-    if (!solved.valid(p)) continue;
-    const double phase = ChoosePeak(t, options.threshold, static_cast<int>(p - begin), s);
-    if (std::isnan(phase)) {
-      flags[p] |= kFlagNoReturn;
-    } else {
-      range_m[p] = static_cast<float>(PhaseToRange(phase, options.base_frequency_hz));
-    }
-  }
-}
-
 // The orders compiled (each costs compile time, ~10 s at m = 16 per instruction set): every
 // m up to 6, then 8, 12 and 16 for the orders between, zero-padded. Under the sanitizers, where
 // compile time counts and speed does not, only 4, 8 and 16: the padded orders give the same
@@ -486,29 +217,21 @@ int PaddedOrder(int m) { return m <= 4 ? 4 : m <= 8 ? 8 : 16; }
 int PaddedOrder(int m) { return m <= 6 ? m : m <= 8 ? 8 : m <= 12 ? 12 : 16; }
 #endif
 
-// Every padded order, as one function per instruction set.
-__attribute__((always_inline)) inline void RangeBlockAnyOrder(
-    const SolvedImage& solved, const RangeTables& t, const RangeOptions& options, int64_t begin,
-    int64_t end, std::span<float> range_m, std::span<uint8_t> flags, RangeScratch& s) {
-  switch (PaddedOrder(solved.order)) {
-#define TRANSIENT_RANGE_CASE(M) \
-  case M:                       \
-    return RangeBlockFixed<M>(solved, t, options, begin, end, range_m, flags, s);
+// The lane code for each lane count (kernels_simd.h).
+namespace lanes8 {
+inline constexpr int kLanes = 8;
+#include "simd_lanes.inc"
+// (first: the lane code below uses its Vd, Vm and helpers)
+#include "optimized_range_lanes.inc"
+}  // namespace lanes8
 #if !defined(TRANSIENT_SIMD_BASELINE_ONLY)
-    TRANSIENT_RANGE_CASE(1)
-    TRANSIENT_RANGE_CASE(2)
-    TRANSIENT_RANGE_CASE(3)
-    TRANSIENT_RANGE_CASE(5)
-    TRANSIENT_RANGE_CASE(6)
-    TRANSIENT_RANGE_CASE(12)
+namespace lanes4 {
+inline constexpr int kLanes = 4;
+#include "simd_lanes.inc"
+// (first: the lane code below uses its Vd, Vm and helpers)
+#include "optimized_range_lanes.inc"
+}  // namespace lanes4
 #endif
-    TRANSIENT_RANGE_CASE(4)
-    TRANSIENT_RANGE_CASE(8)
-    TRANSIENT_RANGE_CASE(16)
-#undef TRANSIENT_RANGE_CASE
-  }
-  assert(false && "order outside 1..kMaxOrder");
-}
 
 TRANSIENT_SIMD_VARIANTS(RangeBlock, RangeBlockAnyOrder,
                         (const SolvedImage& solved, const RangeTables& t,

@@ -199,7 +199,8 @@ absl::Status UnwrapImage(const MomentImage& moments, const UnwrapOptions& option
   confidence->assign(n, kNaNf);
   flags->assign(n, 0);
   if (GetKernelOptions().kind == KernelKind::kOptimized) {
-    // Eight pixels at a time, bit for bit the loop below (optimized_unwrap.cc).
+    // Eight or four pixels at a time (kernels_simd.h), bit for bit the loop below
+    // (optimized_unwrap.cc).
     const internal::UnwrapOutputs out{range_m->data(), amplitude->data(), confidence->data(),
                                       flags->data()};
     internal::ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {

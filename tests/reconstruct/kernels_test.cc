@@ -222,7 +222,7 @@ TEST_P(Kernels, PisarenkoMeetsTheAccuracyContract) {
   RecordProperty("fast_route_pixels", absl::StrCat(fast, " of ", valid));
   EXPECT_GE(fast, 0.95 * valid) << "m = " << m;
 
-  // The optimized kernel (b above) settles most pixels eight at a time in SIMD lanes for
+  // The optimized kernel (b above) settles most pixels eight or four at a time in SIMD lanes for
   // m <= 8, the rest one by one; above 8 every pixel goes one by one. (Under the sanitizers the
   // lanes are compiled for m = 1, 3, 4 and 8 only: the orders this suite runs.)
   PisarenkoImage lanes = internal::AllocatePisarenko(solved);

@@ -136,10 +136,10 @@ TEST(UnwrapImage, KeepsTheMomentFlagsMarksInvalidPixelsAndChecksTheOrder) {
                        HasSubstr("order m = 10. Violated constraint: m >= 15")));
 }
 
-// The image loop takes eight pixels at a time in the optimized kernels (optimized_unwrap.cc):
-// its results must be UnwrapPixel's bit for bit, for every kind of pixel in any lane: single
-// and mixed returns, noise that makes some ambiguous, too little light, no light, NaN
-// moments, invalid pixels; for the Kinect's harmonics, for 1, 2, 3 (Newton's steps then reach
+// The image loop takes eight or four pixels at a time in the optimized kernels
+// (optimized_unwrap.cc): its results must be UnwrapPixel's bit for bit, for every kind of pixel in
+// any lane: single and mixed returns, noise that makes some ambiguous, too little light, no light,
+// NaN moments, invalid pixels; for the Kinect's harmonics, for 1, 2, 3 (Newton's steps then reach
 // the library's rotation) and for one harmonic alone.
 TEST(UnwrapImage, TheOptimizedLoopEqualsUnwrapPixelBitForBit) {
   std::mt19937_64 rng(17);
@@ -151,7 +151,7 @@ TEST(UnwrapImage, TheOptimizedLoopEqualsUnwrapPixelBitForBit) {
     UnwrapOptions o = base;
     o.min_amplitude = 0.05;
     const double unambiguous_m = kSpeedOfLight / (2.0 * o.base_frequency_hz);
-    const ImageGeometry geometry{37, 23};  // not a multiple of the eight lanes
+    const ImageGeometry geometry{37, 23};  // not a multiple of the eight or four lanes
     const int order = *std::max_element(o.harmonics.begin(), o.harmonics.end());
     MomentImage m(geometry, order);
     m.valid.assign(geometry.pixel_count(), 1);
