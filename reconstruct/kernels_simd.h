@@ -3,13 +3,13 @@
 // masks, Levinson's recursion), one pixel or candidate a lane. A kernel is compiled once per
 // instruction set (TRANSIENT_SIMD_VARIANTS below): AVX-512 with eight lanes (one register a
 // vector), AVX2 with four (one register), the baseline with eight (four SSE2 registers). The
-// lane code is written once, in a `*_lanes.inc` file that the kernel's source includes into a
-// namespace per lane count, `lanes8` and `lanes4`, each after `kLanes` and simd_lanes.inc (the
-// vector types and their helpers). On the AVX2 VM eight lanes as two AVX2 registers ran
-// 1.4-4.2x slower than four as one (docs/speed.md): the kernels keep more vectors live than
-// AVX2's sixteen registers hold, and spilled them. The baseline keeps eight: with four, GCC took
-// 265 s to compile its Pisarenko lanes against 70 s (one run each), and it runs only on CPUs
-// without AVX2. Not with target_clones: GCC 12 lowers a clone's generic vector comparisons for
+// lane code is written once, in a `*_lanes.inc` file that the kernel's source compiles into a
+// namespace per lane count, `lanes8` and `lanes4` (simd_namespaces.inc), each after `kLanes` and
+// simd_lanes.inc (the vector types and their helpers). On the AVX2 VM eight lanes as two AVX2
+// registers ran 1.4-4.2x slower than four as one (docs/speed.md): the kernels keep more vectors
+// live than AVX2's sixteen registers hold, and spilled them. The baseline keeps eight: with four,
+// GCC took 265 s to compile its Pisarenko lanes against 70 s (one run each), and it runs only on
+// CPUs without AVX2. Not with target_clones: GCC 12 lowers a clone's generic vector comparisons for
 // the baseline instruction set, one scalar comparison per lane. Include the lane files only from
 // kernel sources, and call their helpers only from always_inline code: they pass vectors by
 // value, whose calling convention differs between instruction sets (hence -Wpsabi off there).

@@ -446,22 +446,8 @@ namespace {
 #define TRANSIENT_LANE_INLINE __attribute__((always_inline)) inline
 
 // The lane code for each lane count (kernels_simd.h).
-namespace lanes8 {
-inline constexpr int kLanes = 8;
-#include "simd_lanes.inc"
-// (first: the lane code below uses its Vd, Vm and helpers)
-#include "levinson_lanes.inc"
-#include "optimized_pisarenko_lanes.inc"
-}  // namespace lanes8
-#if !defined(TRANSIENT_SIMD_BASELINE_ONLY)
-namespace lanes4 {
-inline constexpr int kLanes = 4;
-#include "simd_lanes.inc"
-// (first: the lane code below uses its Vd, Vm and helpers)
-#include "levinson_lanes.inc"
-#include "optimized_pisarenko_lanes.inc"
-}  // namespace lanes4
-#endif
+#define TRANSIENT_LANE_CODE "optimized_pisarenko_lanes.inc"
+#include "simd_namespaces.inc"
 
 TRANSIENT_SIMD_VARIANTS(PisarenkoBlockLanes, PisarenkoBlockAnyOrder,
                         (const SolvedImage& solved, const PisarenkoSearchGrid& grid, int64_t begin,

@@ -218,20 +218,8 @@ int PaddedOrder(int m) { return m <= 6 ? m : m <= 8 ? 8 : m <= 12 ? 12 : 16; }
 #endif
 
 // The lane code for each lane count (kernels_simd.h).
-namespace lanes8 {
-inline constexpr int kLanes = 8;
-#include "simd_lanes.inc"
-// (first: the lane code below uses its Vd, Vm and helpers)
-#include "optimized_range_lanes.inc"
-}  // namespace lanes8
-#if !defined(TRANSIENT_SIMD_BASELINE_ONLY)
-namespace lanes4 {
-inline constexpr int kLanes = 4;
-#include "simd_lanes.inc"
-// (first: the lane code below uses its Vd, Vm and helpers)
-#include "optimized_range_lanes.inc"
-}  // namespace lanes4
-#endif
+#define TRANSIENT_LANE_CODE "optimized_range_lanes.inc"
+#include "simd_namespaces.inc"
 
 TRANSIENT_SIMD_VARIANTS(RangeBlock, RangeBlockAnyOrder,
                         (const SolvedImage& solved, const RangeTables& t,

@@ -21,22 +21,8 @@ namespace transient::optimized {
 namespace {
 
 // The lane code for each lane count (kernels_simd.h).
-namespace lanes8 {
-inline constexpr int kLanes = 8;
-#include "simd_lanes.inc"
-// (first: the lane code below uses its Vd, Vm and helpers)
-#include "levinson_lanes.inc"
-#include "optimized_solve_lanes.inc"
-}  // namespace lanes8
-#if !defined(TRANSIENT_SIMD_BASELINE_ONLY)
-namespace lanes4 {
-inline constexpr int kLanes = 4;
-#include "simd_lanes.inc"
-// (first: the lane code below uses its Vd, Vm and helpers)
-#include "levinson_lanes.inc"
-#include "optimized_solve_lanes.inc"
-}  // namespace lanes4
-#endif
+#define TRANSIENT_LANE_CODE "optimized_solve_lanes.inc"
+#include "simd_namespaces.inc"
 
 TRANSIENT_SIMD_VARIANTS(SolveBlock, SolveBlockAnyOrder,
                         (const MomentImage& moments, const SolveOptions& options, int64_t begin,

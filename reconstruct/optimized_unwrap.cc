@@ -22,20 +22,8 @@ namespace transient::internal {
 namespace {
 
 // The lane code for each lane count (kernels_simd.h).
-namespace lanes8 {
-inline constexpr int kLanes = 8;
-#include "simd_lanes.inc"
-// (first: the lane code below uses its Vd, Vm and helpers)
-#include "optimized_unwrap_lanes.inc"
-}  // namespace lanes8
-#if !defined(TRANSIENT_SIMD_BASELINE_ONLY)
-namespace lanes4 {
-inline constexpr int kLanes = 4;
-#include "simd_lanes.inc"
-// (first: the lane code below uses its Vd, Vm and helpers)
-#include "optimized_unwrap_lanes.inc"
-}  // namespace lanes4
-#endif
+#define TRANSIENT_LANE_CODE "optimized_unwrap_lanes.inc"
+#include "simd_namespaces.inc"
 
 }  // namespace
 
