@@ -6,11 +6,11 @@
 //    p = conj(q) as planes, one SIMD lane per pixel;
 // 2. per pixel, its search grid from shared cos/sin tables (one SIMD lane per phase), and
 //    its local minima, found as set bits, gathered into a batch of candidates;
-// 3. Newton's method on the derivative of the series for eight or four candidates at once
-// (kernels_simd.h), one lane
-//    per candidate, masked per lane exactly as RefineMinimum of range.cc decides. No
-//    sine or cosine is called: the phase is the grid phase (tabled) plus an offset of at most
-//    one bin, and e^{i offset} is its Taylor polynomial;
+// 3. Newton's method on the derivative of the series, one lane per candidate, masked per lane
+//    exactly as RefineMinimum of range.cc decides, in two vectors of eight or four candidates
+//    (kernels_simd.h) whose steps interleave. No sine or cosine is called: the phase is the
+//    grid phase (tabled) plus an offset of at most one bin, and e^{i offset} is its Taylor
+//    polynomial;
 // 4. per pixel, the first return by MeseFirstReturn (range.cc): the first peak whose density
 //    is at least `threshold` times the highest, or whose light is at least `threshold` times
 //    the brightest peak's where it stands apart. Every grid minimum is refined: the brightest
@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "absl/container/inlined_vector.h"
@@ -81,6 +82,8 @@ RangeTables MakeRangeTables(int m, int bins) {
 
 // Candidates refined together.
 constexpr int kBatch = 256;
+// Vectors of candidates refined side by side (RefineGroups).
+constexpr int kRefineGroups = 2;
 
 // Per-thread working memory, reused from block to block.
 struct RangeScratch {
@@ -116,10 +119,10 @@ struct RangeScratch {
     grid.resize(static_cast<size_t>(grid_stride) * kRangeBlock);
     for (auto* v : {&left, &middle, &right, &center_phase, &center_re, &center_im, &refined_phase,
                     &refined_denominator, &refined_light}) {
-      v->resize(kBatch + simd::kMaxLanes);
+      v->resize(kBatch + kRefineGroups * simd::kMaxLanes);
     }
-    lane.resize(kBatch + simd::kMaxLanes);
-    target.resize(kBatch + simd::kMaxLanes);
+    lane.resize(kBatch + kRefineGroups * simd::kMaxLanes);
+    target.resize(kBatch + kRefineGroups * simd::kMaxLanes);
     // A lane has at most bins/2 grid minima: two neighbours cannot both be one.
     const size_t most = static_cast<size_t>(kRangeBlock) * (t.bins / 2 + 1);
     if (minimum_lane.size() < most) {
