@@ -15,6 +15,11 @@
 // value, whose calling convention differs between instruction sets (hence -Wpsabi off there).
 #pragma once
 
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <string_view>
+
 namespace transient::simd {
 
 // The most lanes of any instruction set: scratch arrays shared by every lane count are padded
@@ -24,16 +29,57 @@ inline constexpr int kMaxLanes = 8;
 // The instruction sets a kernel is compiled for, best first.
 enum class Level { kX86_64_V4, kX86_64_V3, kBaseline };
 
+inline const char* LevelName(Level level) {
+  switch (level) {
+    case Level::kX86_64_V4:
+      return "x86-64-v4";
+    case Level::kX86_64_V3:
+      return "x86-64-v3";
+    case Level::kBaseline:
+      return "baseline";
+  }
+  return "?";
+}
+
 // The best level this CPU runs (x86-64-v4: AVX-512 F/BW/CD/DQ/VL; v3: AVX2, FMA, BMI1/2).
+inline Level DetectedLevel() {
+  __builtin_cpu_init();
+  const bool v3 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+                  __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2");
+  const bool v4 = v3 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                  __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512dq") &&
+                  __builtin_cpu_supports("avx512vl");
+  return v4 ? Level::kX86_64_V4 : v3 ? Level::kX86_64_V3 : Level::kBaseline;
+}
+
+// The level to run on a CPU that runs `cpu` at best, given the environment variable
+// TRANSIENT_SIMD (`cap`, null when unset): one of the level names caps it, so that the tests run
+// the lower clones too (tests/reconstruct/CMakeLists.txt); a level above the CPU's, or any other
+// value, leaves the CPU's and says why in *message (else left empty).
+inline Level CappedLevel(const char* cap, Level cpu, std::string* message) {
+  message->clear();
+  if (cap == nullptr) return cpu;
+  for (Level level : {Level::kX86_64_V4, Level::kX86_64_V3, Level::kBaseline}) {
+    if (std::string_view(cap) != LevelName(level)) continue;
+    if (level >= cpu) return level;
+    *message = std::string("TRANSIENT_SIMD=") + cap + ": this CPU runs " + LevelName(cpu) +
+               " at best; the vector kernels run " + LevelName(cpu);
+    return cpu;
+  }
+  *message = std::string("TRANSIENT_SIMD=") + cap +
+             ": expected x86-64-v4, x86-64-v3 or baseline; the vector kernels run " +
+             LevelName(cpu);
+  return cpu;
+}
+
+// The level the vector kernels run: this CPU's best, or lower if TRANSIENT_SIMD says so (a
+// value it cannot follow is reported on stderr, once).
 inline Level CpuLevel() {
   static const Level level = [] {
-    __builtin_cpu_init();
-    const bool v3 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
-                    __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2");
-    const bool v4 = v3 && __builtin_cpu_supports("avx512f") &&
-                    __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512cd") &&
-                    __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-    return v4 ? Level::kX86_64_V4 : v3 ? Level::kX86_64_V3 : Level::kBaseline;
+    std::string message;
+    const Level capped = CappedLevel(std::getenv("TRANSIENT_SIMD"), DetectedLevel(), &message);
+    if (!message.empty()) std::fprintf(stderr, "transient: %s\n", message.c_str());
+    return capped;
   }();
   return level;
 }

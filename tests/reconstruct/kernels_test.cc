@@ -5,18 +5,23 @@
 // 1, 3, 4, 8, 16 and 10 (the range kernel zero-pads it to 12, or to 16 under the sanitizers).
 #include "transient/reconstruct/kernels.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <iostream>
 #include <limits>
 #include <numbers>
 #include <random>
 #include <span>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "reconstruct/kernels_internal.h"
+#include "reconstruct/kernels_simd.h"
 #include "test_measures.h"
 #include "transient/reconstruct/pisarenko.h"
 
@@ -310,6 +315,40 @@ TEST(KernelSelection, TheImageApiRunsTheChosenKind) {
   }
   SetKernelOptions({});
   EXPECT_EQ(GetKernelOptions().kind, KernelKind::kOptimized);
+}
+
+// TRANSIENT_SIMD caps the vector kernels' instruction set (the release tests run the contract
+// above with each); what it cannot follow leaves the CPU's and says why.
+TEST(SimdLevel, TransientSimdCapsTheLevelAndReportsWhatItCannotFollow) {
+  using simd::Level;
+  std::string message = "stale";
+  EXPECT_EQ(simd::CappedLevel(nullptr, Level::kX86_64_V4, &message), Level::kX86_64_V4);
+  EXPECT_EQ(message, "");
+  EXPECT_EQ(simd::CappedLevel("baseline", Level::kX86_64_V4, &message), Level::kBaseline);
+  EXPECT_EQ(message, "");
+  EXPECT_EQ(simd::CappedLevel("x86-64-v3", Level::kX86_64_V4, &message), Level::kX86_64_V3);
+  EXPECT_EQ(simd::CappedLevel("x86-64-v3", Level::kX86_64_V3, &message), Level::kX86_64_V3);
+  EXPECT_EQ(message, "");
+  // Above the CPU: its own level, and why.
+  EXPECT_EQ(simd::CappedLevel("x86-64-v4", Level::kX86_64_V3, &message), Level::kX86_64_V3);
+  EXPECT_EQ(message,
+            "TRANSIENT_SIMD=x86-64-v4: this CPU runs x86-64-v3 at best; the vector kernels run "
+            "x86-64-v3");
+  // Not a level's name: the CPU's, and the names expected.
+  for (const char* bad : {"", "avx2", "Baseline", "x86-64-v3 "}) {
+    EXPECT_EQ(simd::CappedLevel(bad, Level::kX86_64_V3, &message), Level::kX86_64_V3) << bad;
+    EXPECT_THAT(message, ::testing::HasSubstr("expected x86-64-v4, x86-64-v3 or baseline")) << bad;
+  }
+}
+
+// The level the kernels run is the one TRANSIENT_SIMD allows on this CPU (in the release tests'
+// runs with TRANSIENT_SIMD=baseline, the baseline).
+TEST(SimdLevel, TheKernelsRunTheLevelTheEnvironmentAllows) {
+  std::string message;
+  const simd::Level expected =
+      simd::CappedLevel(std::getenv("TRANSIENT_SIMD"), simd::DetectedLevel(), &message);
+  EXPECT_EQ(simd::CpuLevel(), expected) << simd::LevelName(expected);
+  std::cerr << "vector kernels: " << simd::LevelName(simd::CpuLevel()) << "\n";
 }
 
 }  // namespace
