@@ -171,7 +171,9 @@ __attribute__((always_inline)) inline void LoadBlock(const SolvedImage& solved, 
   const int count = static_cast<int>(end - begin);
   for (int j = 0; j <= M; ++j) {
     if (j > solved.order) {
-      for (int l = 0; l < kRangeBlock; ++l) b.pr[j * kRangeBlock + l] = b.pi[j * kRangeBlock + l] = 0.0;
+      for (int l = 0; l < kRangeBlock; ++l) {
+        b.pr[j * kRangeBlock + l] = b.pi[j * kRangeBlock + l] = 0.0;
+      }
       continue;
     }
     const double* qr = solved.q_real.data() + j * pixels + begin;
