@@ -4,8 +4,9 @@
 // pixel at a time:
 // 1. per block of kRangeBlock pixels, the denominator's cosine series (thesis eq. 8.4) and
 //    p = conj(q) as planes, one SIMD lane per pixel;
-// 2. per pixel, its search grid from shared cos/sin tables (one SIMD lane per phase), and
-//    its local minima, found as set bits, gathered into a batch of candidates;
+// 2. per pixel, its search grid from shared cos/sin tables (one SIMD lane per phase; four
+//    phases a lane where they form orbits, RangeTables), and its local minima, found as set
+//    bits, gathered into a batch of candidates;
 // 3. Newton's method on the derivative of the series, one lane per candidate, masked per lane
 //    exactly as RefineMinimum of range.cc decides, in two vectors of eight or four candidates
 //    (kernels_simd.h) whose steps interleave. No sine or cosine is called: the phase is the
@@ -49,11 +50,18 @@ constexpr double kMaxRotation = 0.25;
 // the search for minima needs no wrap), h = 2 pi / bins, in rows per k = 1..m:
 // c2[(k-1) stride + i] = 2 cos(k phi_i) and s2 = -2 sin(k phi_i), so that the series
 // a_0 + 2 Re sum_k a_k e^{ik phi} is a_0 + sum_k Re(a_k) c2 + Im(a_k) s2.
+// When bins is a multiple of 4 (the automatic 16 (m+1) always is), only the quarter
+// n = 0..bins/4 is tabled (rows of orbit_stride): the phases n h, -n h, pi + n h and pi - n h
+// share their cosines and sines up to sign (cos k(pi + phi) = (-1)^k cos k phi), so the
+// series' even and odd terms at n h give all four (SearchLane), as the density's orbits do.
 struct RangeTables {
   int bins = 0;
   int stride = 0;  // bins + 2, rounded up to a whole vector, plus one vector
   double h = 0.0;
   std::vector<double> c2, s2;
+  int quarter = 0;       // bins / 4 where bins is a multiple of 4, else 0 (c2, s2 instead)
+  int orbit_stride = 0;  // quarter + 1, rounded up to a whole vector
+  std::vector<double> cq, sq;
   std::vector<double> cos_n, sin_n;  // e^{i n h}, n = 0..bins-1
 };
 
@@ -62,14 +70,27 @@ RangeTables MakeRangeTables(int m, int bins) {
   t.bins = bins;
   t.stride = (bins + 2 + 7) / 8 * 8 + 8;  // whole vectors, and one more for the last search
   t.h = kTwoPi / bins;
-  t.c2.assign(static_cast<size_t>(t.stride) * m, 0.0);
-  t.s2.assign(t.c2.size(), 0.0);
   t.cos_n.resize(bins);
   t.sin_n.resize(bins);
   for (int n = 0; n < bins; ++n) {
     t.cos_n[n] = std::cos(n * t.h);
     t.sin_n[n] = std::sin(n * t.h);
   }
+  if (bins % 4 == 0) {
+    t.quarter = bins / 4;
+    t.orbit_stride = (t.quarter + 1 + 7) / 8 * 8;
+    t.cq.assign(static_cast<size_t>(t.orbit_stride) * m, 0.0);
+    t.sq.assign(t.cq.size(), 0.0);
+    for (int n = 0; n <= t.quarter; ++n) {
+      for (int k = 1; k <= m; ++k) {
+        t.cq[(k - 1) * t.orbit_stride + n] = 2.0 * std::cos(k * n * t.h);
+        t.sq[(k - 1) * t.orbit_stride + n] = -2.0 * std::sin(k * n * t.h);
+      }
+    }
+    return t;
+  }
+  t.c2.assign(static_cast<size_t>(t.stride) * m, 0.0);
+  t.s2.assign(t.c2.size(), 0.0);
   for (int i = 0; i < bins + 2; ++i) {
     const int n = i == 0 ? bins - 1 : (i == bins + 1 ? 0 : i - 1);  // the same grid phases
     for (int k = 1; k <= m; ++k) {
@@ -93,6 +114,9 @@ struct RangeScratch {
   // Each lane's grid (grid_stride values a lane): the valleys between its peaks (step 4).
   int grid_stride = 0;
   std::vector<double> grid;
+  // The series at the four phases of each orbit n = 0..quarter (RangeTables): n h, pi + n h,
+  // -n h and pi - n h, orbit_stride values each.
+  std::vector<double> orbit;
   std::vector<uint8_t> minimum;  // bins, rounded up to 8 with zeros
   // The batch: grid minima, one per lane of the refinement.
   int count = 0;
@@ -117,6 +141,7 @@ struct RangeScratch {
     // Past stride: not minima (read as whole vectors of bins, masked).
     grid_stride = static_cast<int>(std::max<size_t>(t.stride, minimum.size() + 2) + 7) / 8 * 8;
     grid.resize(static_cast<size_t>(grid_stride) * kRangeBlock);
+    orbit.resize(4 * static_cast<size_t>(t.orbit_stride));
     for (auto* v : {&left, &middle, &right, &center_phase, &center_re, &center_im, &refined_phase,
                     &refined_denominator, &refined_light}) {
       v->resize(kBatch + kRefineGroups * simd::kMaxLanes);

@@ -244,10 +244,13 @@ TEST_P(Kernels, RangeWithinATenthOfAMillimetreWithIdenticalFlags) {
   const int m = GetParam();
   const SolvedImage solved = reference::Solve(RandomFrame(m, 400 + m), SolveOptions{});
   const int64_t pixels = kGeometry.pixel_count();
-  // Automatic grids (16 (m+1) phases), one that is no multiple of a vector, and one coarse
-  // enough for the per-pixel path of the optimized kernel.
-  for (const auto& [threshold, bins] :
-       {std::pair{0.0, 0}, {0.1, 0}, {0.5, 0}, {1.0, 0}, {0.1, 101}, {0.1, 20}}) {
+  // Automatic grids (16 (m+1) phases, a multiple of 4: by orbits in the optimized kernel), one
+  // that is a multiple of 4 but not of 8 (by orbits, 26 of them), the coarsest by orbits (7, fewer
+  // than a vector), one that is not a multiple of 4 (by phases) and one coarse enough for the
+  // per-pixel path of the optimized kernel.
+  const std::pair<double, int> cases[] = {{0.0, 0},   {0.1, 0},  {0.5, 0},   {1.0, 0},
+                                          {0.1, 100}, {0.1, 28}, {0.1, 101}, {0.1, 20}};
+  for (const auto& [threshold, bins] : cases) {
     RangeOptions options;
     options.threshold = threshold;
     options.search_bins = bins;
