@@ -6,11 +6,11 @@
 //    p = conj(q) as planes, one SIMD lane per pixel;
 // 2. per pixel, its search grid from shared cos/sin tables (one SIMD lane per phase; four
 //    phases a lane where they form orbits, RangeTables), and its local minima, found as set
-//    bits, gathered into a batch of candidates;
-// 3. Newton's method on the derivative of the series, one lane per candidate, masked per lane
-//    exactly as RefineMinimum of range.cc decides, in two vectors of eight or four candidates
-//    (kernels_simd.h) whose steps interleave. No sine or cosine is called: the phase is the
-//    grid phase (tabled) plus an offset of at most one bin, and e^{i offset} is its Taylor
+//    bits, listed for the block;
+// 3. Newton's method on the derivative of the series, one lane per grid minimum of the list,
+//    masked per lane exactly as RefineMinimum of range.cc decides, in two vectors of eight or
+//    four minima (kernels_simd.h) whose steps interleave. No sine or cosine is called: the phase is
+//    the grid phase (tabled) plus an offset of at most one bin, and e^{i offset} is its Taylor
 //    polynomial;
 // 4. per pixel, the first return by MeseFirstReturn (range.cc): the first peak whose density
 //    is at least `threshold` times the highest, or whose light is at least `threshold` times
@@ -62,7 +62,7 @@ struct RangeTables {
   int quarter = 0;       // bins / 4 where bins is a multiple of 4, else 0 (c2, s2 instead)
   int orbit_stride = 0;  // quarter + 1, rounded up to a whole vector
   std::vector<double> cq, sq;
-  std::vector<double> cos_n, sin_n;  // e^{i n h}, n = 0..bins-1
+  std::vector<double> phase_n, cos_n, sin_n;  // n h and e^{i n h}, n = 0..bins-1
 };
 
 RangeTables MakeRangeTables(int m, int bins) {
@@ -70,9 +70,11 @@ RangeTables MakeRangeTables(int m, int bins) {
   t.bins = bins;
   t.stride = (bins + 2 + 7) / 8 * 8 + 8;  // whole vectors, and one more for the last search
   t.h = kTwoPi / bins;
+  t.phase_n.resize(bins);
   t.cos_n.resize(bins);
   t.sin_n.resize(bins);
   for (int n = 0; n < bins; ++n) {
+    t.phase_n[n] = n * t.h;
     t.cos_n[n] = std::cos(n * t.h);
     t.sin_n[n] = std::sin(n * t.h);
   }
@@ -101,9 +103,7 @@ RangeTables MakeRangeTables(int m, int bins) {
   return t;
 }
 
-// Candidates refined together.
-constexpr int kBatch = 256;
-// Vectors of candidates refined side by side (RefineGroups).
+// Vectors of grid minima refined side by side (RefineGroups).
 constexpr int kRefineGroups = 2;
 
 // Per-thread working memory, reused from block to block.
@@ -118,17 +118,9 @@ struct RangeScratch {
   // -n h and pi - n h, orbit_stride values each.
   std::vector<double> orbit;
   std::vector<uint8_t> minimum;  // bins, rounded up to 8 with zeros
-  // The batch: grid minima, one per lane of the refinement.
-  int count = 0;
-  std::vector<int32_t> lane;
-  std::vector<double> left, middle, right;
-  std::vector<double> center_phase, center_re, center_im;  // the bin's phase, e^{i phase}
-  // Per batch entry: its grid minimum (below), and the phase, |p|^2 and light refined.
-  std::vector<int32_t> target;
-  std::vector<double> refined_phase, refined_denominator, refined_light;
   // The grid minima of the block in the order of their lanes and bins, those of lane l in
   // [lane_begin[l], lane_begin[l + 1]): bin, the three grid values around it, and once refined
-  // the phase, |p|^2 and light.
+  // the phase, |p|^2 and light (padded by the vectors refined side by side).
   int minima = 0;
   std::vector<int32_t> minimum_lane, minimum_bin;
   std::vector<double> minimum_left, minimum_middle, minimum_right;
@@ -142,14 +134,9 @@ struct RangeScratch {
     grid_stride = static_cast<int>(std::max<size_t>(t.stride, minimum.size() + 2) + 7) / 8 * 8;
     grid.resize(static_cast<size_t>(grid_stride) * kRangeBlock);
     orbit.resize(4 * static_cast<size_t>(t.orbit_stride));
-    for (auto* v : {&left, &middle, &right, &center_phase, &center_re, &center_im, &refined_phase,
-                    &refined_denominator, &refined_light}) {
-      v->resize(kBatch + kRefineGroups * simd::kMaxLanes);
-    }
-    lane.resize(kBatch + kRefineGroups * simd::kMaxLanes);
-    target.resize(kBatch + kRefineGroups * simd::kMaxLanes);
     // A lane has at most bins/2 grid minima: two neighbours cannot both be one.
-    const size_t most = static_cast<size_t>(kRangeBlock) * (t.bins / 2 + 1);
+    const size_t most =
+        static_cast<size_t>(kRangeBlock) * (t.bins / 2 + 1) + kRefineGroups * simd::kMaxLanes;
     if (minimum_lane.size() < most) {
       for (auto* v : {&minimum_lane, &minimum_bin}) v->resize(most);
       for (auto* v : {&minimum_left, &minimum_middle, &minimum_right, &minimum_phase,
