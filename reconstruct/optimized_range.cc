@@ -53,7 +53,7 @@ constexpr double kMaxRotation = 0.25;
 // When bins is a multiple of 4 (the automatic 16 (m+1) always is), only the quarter
 // n = 0..bins/4 is tabled (rows of orbit_stride): the phases n h, -n h, pi + n h and pi - n h
 // share their cosines and sines up to sign (cos k(pi + phi) = (-1)^k cos k phi), so the
-// series' even and odd terms at n h give all four (SearchLane), as the density's orbits do.
+// series' even and odd terms at n h give all four (GridByOrbits), as the density's orbits do.
 struct RangeTables {
   int bins = 0;
   int stride = 0;  // bins + 2, rounded up to a whole vector, plus one vector
