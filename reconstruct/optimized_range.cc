@@ -130,7 +130,7 @@ struct RangeScratch {
   void Reserve(int m, const RangeTables& t) {
     const size_t planes_per_pixel = static_cast<size_t>(1 + 2 * m + 2 * (m + 1));
     planes.resize(planes_per_pixel * kRangeBlock);
-    minimum.assign((t.bins + 31) / 32 * 32, 0);
+    minimum.assign((t.bins + 7) / 8 * 8, 0);
     // Past stride: not minima (read as whole vectors of bins, masked).
     grid_stride = static_cast<int>(std::max<size_t>(t.stride, minimum.size() + 2) + 7) / 8 * 8;
     grid.resize(static_cast<size_t>(grid_stride) * kRangeBlock);
