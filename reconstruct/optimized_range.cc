@@ -15,7 +15,8 @@
 // 4. per pixel, the first return by MeseFirstReturn (range.cc): the first peak whose density
 //    is at least `threshold` times the highest, or whose light is at least `threshold` times
 //    the brightest peak's where it stands apart. Every grid minimum is refined: the brightest
-//    peak's light needs them all.
+//    peak's light needs them all. One lane per pixel where the density decides (ChoosePeaks),
+//    the scalar rule (ChoosePeak) where a peak might pass by its light.
 // Grids coarser than kMaxRotation per bin (fewer than 26 phases) take the per-pixel path.
 #include <algorithm>
 #include <array>
@@ -211,8 +212,9 @@ __attribute__((always_inline)) inline void LoadBlock(const SolvedImage& solved, 
 }
 
 // Step 4 for lane l over its refined minima: MeseFirstReturn, with the lane's grid for the
-// valleys (grid value i + 1 is bin i's). Scalar and the same for every order and instruction
-// set: one copy, called from the clones rather than inlined into each.
+// valleys (grid value i + 1 is bin i's), for the pixels that ChoosePeaks cannot decide in
+// vectors. Scalar and the same for every order and instruction set: one copy, called from the
+// clones rather than inlined into each.
 __attribute__((noinline)) double ChoosePeak(const RangeTables& t, double threshold, int l,
                                             const RangeScratch& s) {
   absl::InlinedVector<MesePeak, kMaxOrder> peaks;
