@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "kernels_internal.h"
 
 namespace transient {
 namespace {
@@ -91,46 +92,62 @@ absl::Status GaussianSmooth(double sigma_px, MomentImage* moments, std::span<con
   const std::vector<double> half_kernel = GaussianHalfKernel(sigma_px);
   const std::vector<float> kernel(half_kernel.begin(), half_kernel.end());
 
-  // Weights: valid and finite in every plane (a NaN in a "valid" pixel must not spread).
-  std::vector<float> weight(static_cast<size_t>(pixels), 0.0f);
-  for (int64_t p = 0; p < pixels; ++p) {
-    bool usable = moments->valid.empty() || moments->valid[static_cast<size_t>(p)] != 0;
-    for (int j = 0; j <= m && usable; ++j) {
-      usable = std::isfinite(moments->real_plane(j)[p]) && std::isfinite(moments->imag_plane(j)[p]);
-    }
-    weight[static_cast<size_t>(p)] = usable ? 1.0f : 0.0f;
-  }
-  std::vector<float> tmp(static_cast<size_t>(pixels));
-  std::vector<float> norm(static_cast<size_t>(pixels));
-  std::vector<float> padded;
-  HorizontalPass(kernel, width, height, weight.data(), tmp.data(), padded);
-  VerticalPass(kernel, width, height, tmp.data(), norm.data());
-
-  std::vector<float> masked(static_cast<size_t>(pixels));
-  std::vector<float> smooth(static_cast<size_t>(pixels));
-  auto smooth_plane = [&](float* plane) {
-    for (int64_t p = 0; p < pixels; ++p) {
-      masked[static_cast<size_t>(p)] = weight[static_cast<size_t>(p)] != 0.0f ? plane[p] : 0.0f;
-    }
-    HorizontalPass(kernel, width, height, masked.data(), tmp.data(), padded);
-    VerticalPass(kernel, width, height, tmp.data(), smooth.data());
-    for (int64_t p = 0; p < pixels; ++p) {
-      if (weight[static_cast<size_t>(p)] != 0.0f) {
-        plane[p] = smooth[static_cast<size_t>(p)] / norm[static_cast<size_t>(p)];
-      }
-    }
-  };
-  auto smooth_both = [&](int j) {
-    smooth_plane(moments->real_plane(j));
-    smooth_plane(moments->imag_plane(j));
+  // The planes to smooth, each on its own: in parallel on KernelThreads() threads, each with
+  // its scratch rows, the same arithmetic whatever the number of threads. The daemon smooths
+  // every frame: its buffers (a VGA plane is 1.2 MB) are kept from call to call, per thread.
+  std::vector<float*> targets;
+  auto add_both = [&](int j) {
+    targets.push_back(moments->real_plane(j));
+    targets.push_back(moments->imag_plane(j));
   };
   if (planes.empty()) {
-    for (int j = 0; j <= m; ++j) smooth_both(j);
+    for (int j = 0; j <= m; ++j) add_both(j);
   }
   for (int j : planes) {
     assert(j >= 0 && j <= m);
-    smooth_both(j);
+    add_both(j);
   }
+  struct Scratch {
+    std::vector<float> masked, tmp, smooth, padded;
+  };
+  thread_local Scratch mine;
+  thread_local std::vector<float> weight, norm;
+  weight.resize(static_cast<size_t>(pixels));
+  norm.resize(static_cast<size_t>(pixels));
+  mine.tmp.resize(static_cast<size_t>(pixels));
+
+  // (thread_local: the parallel bodies below see their own thread's, so they take pointers.)
+  float* const weights = weight.data();
+  const float* const norms = norm.data();
+  // Weights: valid and finite in every plane (a NaN in a "valid" pixel must not spread).
+  internal::ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {
+    for (int64_t p = begin; p < end; ++p) {
+      bool usable = moments->valid.empty() || moments->valid[static_cast<size_t>(p)] != 0;
+      for (int j = 0; j <= m && usable; ++j) {
+        usable =
+            std::isfinite(moments->real_plane(j)[p]) && std::isfinite(moments->imag_plane(j)[p]);
+      }
+      weights[p] = usable ? 1.0f : 0.0f;
+    }
+  });
+  HorizontalPass(kernel, width, height, weights, mine.tmp.data(), mine.padded);
+  VerticalPass(kernel, width, height, mine.tmp.data(), norm.data());
+  internal::ParallelBlocks(
+      static_cast<int64_t>(targets.size()),
+      [&](int64_t begin, int64_t end) {
+        thread_local Scratch s;
+        for (auto* v : {&s.masked, &s.tmp, &s.smooth}) v->resize(static_cast<size_t>(pixels));
+        for (int64_t t = begin; t < end; ++t) {
+          float* plane = targets[static_cast<size_t>(t)];
+          for (int64_t p = 0; p < pixels; ++p) s.masked[p] = weights[p] != 0.0f ? plane[p] : 0.0f;
+          HorizontalPass(kernel, width, height, s.masked.data(), s.tmp.data(), s.padded);
+          VerticalPass(kernel, width, height, s.tmp.data(), s.smooth.data());
+          for (int64_t p = 0; p < pixels; ++p) {
+            if (weights[p] != 0.0f) plane[p] = s.smooth[p] / norms[p];
+          }
+        }
+      },
+      1);
   return absl::OkStatus();
 }
 

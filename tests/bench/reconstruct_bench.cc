@@ -10,6 +10,7 @@
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/levinson.h"
 #include "transient/reconstruct/phase_unwrapping.h"
+#include "transient/reconstruct/smoothing.h"
 
 namespace transient {
 namespace {
@@ -101,6 +102,30 @@ void BM_Pisarenko(benchmark::State& state) {
                          benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_Pisarenko)->Apply(Arguments)->Unit(benchmark::kMillisecond);
+
+// The daemon's smoothing of a frame's moments (sigma 0.6 px, every plane) at 640 x 480, m = 4.
+// Argument: threads (KernelOptions; the same arithmetic on any number).
+void BM_GaussianSmooth(benchmark::State& state) {
+  SetKernelOptions({.threads = static_cast<int>(state.range(0))});
+  const MomentImage frame = tools::MakeBenchFrame({640, 480}, 4);
+  MomentImage image = frame;
+  for (auto _ : state) {
+    state.PauseTiming();
+    image.real = frame.real;  // smoothed in place
+    image.imag = frame.imag;
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(GaussianSmooth(0.6, &image).ok());
+  }
+  state.counters["pixels/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations() * frame.geometry.pixel_count()),
+                         benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_GaussianSmooth)
+    ->ArgName("threads")
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 // Three-frequency phase unwrapping at the Kinect v2's size and harmonics (10, 2, 15 of 8 MHz):
 // the depth cameras' range. Arguments: kernel kind (0: UnwrapPixel per pixel on one thread),

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "tests/support/status_matchers.h"
+#include "transient/reconstruct/kernels.h"
 
 namespace transient {
 namespace {
@@ -94,6 +95,28 @@ TEST(GaussianSmooth, OnlyTheListedPlanesAreSmoothed) {
       ASSERT_EQ(some.imag[j * n + p], want.imag[j * n + p]) << j << " " << p;
     }
   }
+}
+
+// The planes are smoothed in parallel on KernelThreads() threads, each with scratch buffers
+// kept from call to call: the values are the same on one thread as on two, and after calls on
+// images of other sizes and orders.
+TEST(GaussianSmooth, OneOrTwoThreadsAndEarlierCallsOfOtherSizesGiveTheSameValues) {
+  const KernelOptions saved = GetKernelOptions();
+  std::mt19937_64 rng(41);
+  const MomentImage before = RandomImage({41, 29}, 4, rng, 0.1);
+  SetKernelOptions({.threads = 1});
+  MomentImage one_thread = before;
+  ASSERT_THAT(GaussianSmooth(kDefaultSmoothingSigmaPx, &one_thread), IsOk());
+  SetKernelOptions({.threads = 2});
+  for (MomentImage other : {RandomImage({63, 47}, 8, rng, 0.2), RandomImage({7, 5}, 1, rng, 0.0)}) {
+    ASSERT_THAT(GaussianSmooth(1.7, &other), IsOk());
+  }
+  MomentImage two_threads = before;
+  ASSERT_THAT(GaussianSmooth(kDefaultSmoothingSigmaPx, &two_threads), IsOk());
+  SetKernelOptions(saved);
+  EXPECT_NE(one_thread.real, before.real);
+  EXPECT_EQ(two_threads.real, one_thread.real);
+  EXPECT_EQ(two_threads.imag, one_thread.imag);
 }
 
 TEST(GaussianSmooth, InvalidPixelsNeitherContributeNorChange) {
