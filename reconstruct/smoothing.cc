@@ -107,16 +107,19 @@ absl::Status GaussianSmooth(double sigma_px, MomentImage* moments, std::span<con
     assert(j >= 0 && j <= m);
     add_both(j);
   }
+  // Each thread's scratch, sized at its first use in a call: a thread_local named in the
+  // parallel bodies below is the running thread's own. So the weights and their norm, shared by
+  // every thread, are passed to them as pointers.
   struct Scratch {
     std::vector<float> masked, tmp, smooth, padded;
+    void Reserve(int64_t pixels) {
+      for (auto* v : {&masked, &tmp, &smooth}) v->resize(static_cast<size_t>(pixels));
+    }
   };
-  thread_local Scratch mine;
+  thread_local Scratch scratch;
   thread_local std::vector<float> weight, norm;
   weight.resize(static_cast<size_t>(pixels));
   norm.resize(static_cast<size_t>(pixels));
-  mine.tmp.resize(static_cast<size_t>(pixels));
-
-  // (thread_local: the parallel bodies below see their own thread's, so they take pointers.)
   float* const weights = weight.data();
   const float* const norms = norm.data();
   // Weights: valid and finite in every plane (a NaN in a "valid" pixel must not spread).
@@ -130,13 +133,14 @@ absl::Status GaussianSmooth(double sigma_px, MomentImage* moments, std::span<con
       weights[p] = usable ? 1.0f : 0.0f;
     }
   });
-  HorizontalPass(kernel, width, height, weights, mine.tmp.data(), mine.padded);
-  VerticalPass(kernel, width, height, mine.tmp.data(), norm.data());
+  scratch.Reserve(pixels);
+  HorizontalPass(kernel, width, height, weights, scratch.tmp.data(), scratch.padded);
+  VerticalPass(kernel, width, height, scratch.tmp.data(), norm.data());
   internal::ParallelBlocks(
       static_cast<int64_t>(targets.size()),
       [&](int64_t begin, int64_t end) {
-        thread_local Scratch s;
-        for (auto* v : {&s.masked, &s.tmp, &s.smooth}) v->resize(static_cast<size_t>(pixels));
+        Scratch& s = scratch;  // this thread's
+        s.Reserve(pixels);
         for (int64_t t = begin; t < end; ++t) {
           float* plane = targets[static_cast<size_t>(t)];
           for (int64_t p = 0; p < pixels; ++p) s.masked[p] = weights[p] != 0.0f ? plane[p] : 0.0f;
