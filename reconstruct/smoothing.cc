@@ -93,7 +93,7 @@ absl::Status GaussianSmooth(double sigma_px, MomentImage* moments, std::span<con
   const std::vector<float> kernel(half_kernel.begin(), half_kernel.end());
 
   // The planes to smooth, each on its own: in parallel on KernelThreads() threads, each with
-  // its scratch rows, the same arithmetic whatever the number of threads. The daemon smooths
+  // its scratch planes, the same arithmetic whatever the number of threads. The daemon smooths
   // every frame: its buffers (a VGA plane is 1.2 MB) are kept from call to call, per thread.
   std::vector<float*> targets;
   auto add_both = [&](int j) {
