@@ -59,7 +59,7 @@ int64_t MemoryInUse() {
 }
 #endif
 
-TEST(Server, TwentySubscribersOneNeverReadsTheOthersKeepTheFullRate) {
+TEST(StreamMemory, TwentySubscribersOneNeverReadsTheOthersKeepTheFullRate) {
   Daemon daemon(kSmallSim);
   // The stuck client asks for big frames (64 slices) with a 2-frame queue and never reads.
   grpc::ClientContext stuck_context;
