@@ -10,7 +10,7 @@ set -euo pipefail
 
 packages=(
   cmake ninja-build g++ pkg-config
-  clang-15 libomp-15-dev llvm-15
+  clang-15 libomp-15-dev llvm-15 lld
   libhdf5-dev hdf5-tools
   libeigen3-dev libabsl-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
