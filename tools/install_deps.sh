@@ -5,6 +5,7 @@
 # and cnats carry frames between machines and test that), then the
 # browser tests' npm packages from tests/web/package-lock.json (npm ci: playwright-core, which
 # drives Debian's Chromium and downloads no browser).
+# lld links the programs (faster than GNU ld: docs/tests.md).
 # Idempotent: apt-get skips what is already there. Uses sudo when not root.
 set -euo pipefail
 
