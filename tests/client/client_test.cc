@@ -31,13 +31,12 @@ namespace {
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::kSmallSim;
 using ::transient::testing::ClosedPort;
 using ::transient::testing::IsOk;
 using ::transient::testing::MustConnect;
 using ::transient::testing::SecondsSince;
 using ::transient::testing::StatusIs;
-
-constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";  // 12.5 frames/s
 
 TEST(ConnectOptions, BadValuesAreRefusedNamingTheField) {
   EXPECT_THAT((ConnectOptions{.address = "127.0.0.1:1"}).Validate(), IsOk());

@@ -34,13 +34,13 @@ namespace {
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::kSmallSim;
 using ::transient::service::testing::Request;
 using ::transient::testing::IsOk;
 using ::transient::testing::MustConnect;
 using ::transient::testing::SecondsSince;
 using ::transient::testing::StatusIs;
 
-constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";  // 12.5 frames/s
 constexpr ImageGeometry kSimGeometry{32, 24};
 
 // The next frame with images, skipping announcements; false when the stream ends first.

@@ -32,6 +32,7 @@ namespace {
 using ::testing::HasSubstr;
 using ::testing::Not;
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::kSmallSim;
 using ::transient::service::testing::Request;
 using ::transient::testing::Certificates;
 using ::transient::testing::IsOk;
@@ -39,7 +40,6 @@ using ::transient::testing::RunProcess;
 using ::transient::testing::ScratchDirectory;
 using ::transient::testing::StatusIs;
 
-constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 constexpr char kToken[] = "0123456789abcdef0123456789abcdef";
 
 void WriteFile(const std::string& path, const std::string& content, mode_t mode = 0600) {

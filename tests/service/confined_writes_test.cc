@@ -25,12 +25,11 @@ using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;
 using ::transient::service::testing::DataDirAt;
 using ::transient::service::testing::FirstFrame;
+using ::transient::service::testing::kSmallSim;
 using ::transient::service::testing::Request;
 using ::transient::service::testing::WriteCapture;
 using ::transient::testing::IsOk;
 using ::transient::testing::ScratchDirectory;
-
-constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 
 grpc::Status StartRecording(Daemon& daemon, const std::string& name, v1::Recording* out) {
   grpc::ClientContext context;

@@ -28,6 +28,9 @@
 
 namespace transient::service::testing {
 
+// The small simulated camera of the daemon tests: 32x24, at its own pace (12.5 frames/s).
+inline constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
+
 inline std::unique_ptr<v1::Transient::Stub> Connect(int port) {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(-1);

@@ -29,10 +29,10 @@ using ::transient::wire::DecodeMomentDepth;
 
 using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::kSmallSim;
 using ::transient::testing::IsOk;
 using ::transient::testing::StatusIs;
 
-constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 constexpr ImageGeometry kSensor{32, 24};
 const double kUnambiguousRangeM = UnambiguousRange(23e6);
 

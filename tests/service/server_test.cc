@@ -44,12 +44,11 @@ using ::transient::testing::StatusIs;
 using ::transient::testing::WaitForPortFile;
 using ::transient::testing::WaitUntil;
 
-constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
-
 using ::transient::service::testing::Connect;
-using ::transient::service::testing::DataDirAt;
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::DataDirAt;
 using ::transient::service::testing::ExpectSameAsLive;
+using ::transient::service::testing::kSmallSim;
 using ::transient::service::testing::RecordWhileStreaming;
 using ::transient::service::testing::Request;
 using ::transient::service::testing::WriteCapture;

@@ -34,9 +34,8 @@ namespace transient::service {
 namespace {
 
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::kSmallSim;
 using ::transient::service::testing::Request;
-
-constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";
 
 #ifdef TRANSIENT_TEST_ASAN
 constexpr char kMemoryMeasure[] = "live heap (AddressSanitizer's count)";

@@ -210,18 +210,20 @@ TEST(RunClient, OutputPathThatIsAFileIsRefusedBeforeConnecting) {
 
 // ---- Against the real daemon ----
 
-constexpr char kSmallSim[] = "sim:mirrors?width=32&height=24";  // 12.5 frames/s
 constexpr int kSimWidth = 32;
 constexpr int kSimHeight = 24;
 
 using ::transient::service::testing::Daemon;
+using ::transient::service::testing::kSmallSim;
 
 std::string Slurp(const std::string& path) {
   std::ifstream stream(path);
   return std::string(std::istreambuf_iterator<char>(stream), {});
 }
 
-std::vector<float> ReadTiff(const std::string& path) { return testing::ReadTiff(path).values; }
+std::vector<float> ReadTiffValues(const std::string& path) {
+  return testing::ReadTiff(path).values;
+}
 
 // The 16-bit samples of a greyscale PNG (stored big-endian).
 std::vector<uint16_t> Png16Values(const testing::RawPng& png) {
@@ -426,7 +428,7 @@ TEST(RunClient, ReceivesMomentDepthAndComputesTheOcclusionOfAVirtualPlane) {
     for (uint8_t v : png.bytes) mean += v / 255.0;
     mean /= static_cast<double>(png.bytes.size());
     EXPECT_NEAR(mean, m.occluded_share, 0.5 / 255.0 + 1e-9);
-    const std::vector<float> b1 = ReadTiff(out + "/moment_depth/b1.tiff");
+    const std::vector<float> b1 = ReadTiffValues(out + "/moment_depth/b1.tiff");
     ASSERT_EQ(b1.size(), static_cast<size_t>(kSimWidth * kSimHeight));
     for (float v : b1) EXPECT_TRUE(v >= -1.0f && v <= 1.0f) << v;
     EXPECT_THAT(Slurp(out + "/summary.json"), HasSubstr("\"moment_depth\": {\"bits\": 128"));
@@ -587,7 +589,7 @@ TEST(RunClient, CorruptFrameIsCountedAndACleanEndIsNotAnError) {
   ASSERT_THAT(summary.status(), IsOk());
   EXPECT_EQ(summary->frames, 2);
   EXPECT_EQ(summary->corrupt_frames, 1);
-  EXPECT_EQ(ReadTiff(dir.File("out/range.tiff"))[0], FakeRange(2, 0));
+  EXPECT_EQ(ReadTiffValues(dir.File("out/range.tiff"))[0], FakeRange(2, 0));
 }
 
 TEST(RunClient, ProductTheDaemonDoesNotOfferIsRefused) {
