@@ -18,7 +18,6 @@ using ::transient::testing::IsOk;
 using ::transient::testing::IsOkAndHolds;
 using ::transient::testing::StatusIs;
 
-constexpr double kPi = std::numbers::pi;
 constexpr double kExact = 1e-14;  // a few ulps of sums of n_phi <= 64 terms of order 1
 
 AcquisitionSchedule MakeSchedule(const ScheduleOptions& options) {
@@ -41,7 +40,7 @@ TEST(AcquisitionSchedule, FourBucketEstimatedOneTakeCostsTwelveRawFrames) {
     const ExposureConfig& e = schedule.exposures()[i];
     EXPECT_EQ(e.harmonic, 1 + i / 4);
     EXPECT_DOUBLE_EQ(e.frequency_hz, e.harmonic * options.base_frequency_hz);
-    EXPECT_DOUBLE_EQ(e.phase_shift_rad, (i % 4) * 0.5 * kPi);
+    EXPECT_DOUBLE_EQ(e.phase_shift_rad, (i % 4) * 0.5 * std::numbers::pi);
     EXPECT_TRUE(e.illumination);
     EXPECT_EQ(e.take, 0);
     EXPECT_DOUBLE_EQ(e.exposure_s, options.exposure_s);
@@ -65,7 +64,7 @@ TEST(AcquisitionSchedule, ZerothSchemesAddTheirExposuresAndTakesMultiply) {
   for (int b = 0; b < 4; ++b) {
     EXPECT_EQ(proxy.exposures()[b].harmonic, 0);
     EXPECT_DOUBLE_EQ(proxy.exposures()[b].frequency_hz, options.proxy_frequency_hz);
-    EXPECT_DOUBLE_EQ(proxy.exposures()[b].phase_shift_rad, b * 0.5 * kPi);
+    EXPECT_DOUBLE_EQ(proxy.exposures()[b].phase_shift_rad, b * 0.5 * std::numbers::pi);
   }
 
   options.takes = 5;
@@ -110,7 +109,7 @@ TEST(AcquisitionSchedule, ArccosGainApproachesPiOverFour) {
   options.phase_steps = 64;
   const double gain = std::abs(MakeSchedule(options).nominal_gain());
   constexpr double kMidpointError = 1e-3;  // the sum is 4.7e-4 below pi/4 (computed offline)
-  EXPECT_NEAR(gain, kPi / 4.0, kMidpointError);
+  EXPECT_NEAR(gain, std::numbers::pi / 4.0, kMidpointError);
   options.phase_steps = 1;  // one sub-exposure at arccos(0) = pi/2: g = -i exactly
   const Complex g1 = MakeSchedule(options).nominal_gain();
   EXPECT_NEAR(g1.real(), 0.0, kExact);
@@ -129,14 +128,14 @@ TEST(AcquisitionSchedule, HarmonicCancellationWeightsFollowTheSineWindow) {
   Complex expected_gain{0.0, 0.0};
   for (int k = 0; k < n; ++k) {
     const SubExposure& s = schedule.sub_exposures()[k];
-    const double w = std::sin((k + 1) * kPi / 4.0) / total;
+    const double w = std::sin((k + 1) * std::numbers::pi / 4.0) / total;
     EXPECT_NEAR(s.weight, w, kExact);
-    EXPECT_NEAR(s.phase_shift_rad, k * kPi / 4.0, kExact);
-    expected_gain += w * std::polar(1.0, -k * kPi / 4.0);
+    EXPECT_NEAR(s.phase_shift_rad, k * std::numbers::pi / 4.0, kExact);
+    expected_gain += w * std::polar(1.0, -k * std::numbers::pi / 4.0);
   }
   EXPECT_NEAR(std::abs(schedule.nominal_gain() - expected_gain), 0.0, kExact);
   // Symmetric window around pi/4: the gain has phase -pi/4.
-  EXPECT_NEAR(std::arg(schedule.nominal_gain()), -kPi / 4.0, kExact);
+  EXPECT_NEAR(std::arg(schedule.nominal_gain()), -std::numbers::pi / 4.0, kExact);
 }
 
 TEST(AcquisitionSchedule, FourBucketIgnoresPhaseStepsAndHasUnitGain) {
@@ -185,7 +184,7 @@ TEST(AcquisitionSchedule, IndexOfRefusesForeignExposures) {
   EXPECT_THAT(schedule.IndexOf(wrong_harmonic).status(),
               StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("harmonic 3")));
   ExposureConfig wrong_shift = config;
-  wrong_shift.phase_shift_rad = 0.25 * kPi;
+  wrong_shift.phase_shift_rad = 0.25 * std::numbers::pi;
   EXPECT_THAT(schedule.IndexOf(wrong_shift).status(),
               StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("not an exposure")));
   ExposureConfig wrong_frequency = config;
@@ -264,7 +263,7 @@ TEST(AcquisitionSchedule, AHarmonicSetWithThreeStepsListsItsExposuresInCaptureOr
     const ExposureConfig& e = schedule->exposures()[static_cast<size_t>(i)];
     EXPECT_EQ(e.harmonic, want_harmonic[i]);
     EXPECT_DOUBLE_EQ(e.frequency_hz, want_harmonic[i] * 8e6);
-    EXPECT_NEAR(e.phase_shift_rad, 2.0 * kPi * (i % 3) / 3.0, 1e-15);
+    EXPECT_NEAR(e.phase_shift_rad, 2.0 * std::numbers::pi * (i % 3) / 3.0, 1e-15);
   }
   EXPECT_EQ(schedule->options().MeasuredHarmonics(), (std::vector<int>{10, 2, 15}));
   EXPECT_FALSE(schedule->options().HasAllHarmonics());
@@ -286,7 +285,8 @@ TEST(AcquisitionSchedule, BucketIndexInvertsBucketPhaseShiftModuloN) {
   for (int n = kMinPhaseBuckets; n <= kMaxPhaseBuckets; ++n) {
     for (int k = 0; k < n; ++k) {
       EXPECT_EQ(BucketIndex(BucketPhaseShift(k, n), n), k);
-      EXPECT_EQ(BucketIndex(BucketPhaseShift(k, n) - 2.0 * kPi, n), k);  // -2*pi*k/3 etc.
+      // -2*pi*k/3 etc.
+      EXPECT_EQ(BucketIndex(BucketPhaseShift(k, n) - 2.0 * std::numbers::pi, n), k);
     }
   }
 }

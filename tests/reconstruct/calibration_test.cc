@@ -17,7 +17,6 @@ using ::testing::HasSubstr;
 using ::transient::testing::IsOk;
 using ::transient::testing::StatusIs;
 
-constexpr double kPi = std::numbers::pi;
 // Factors and moments are float32: a division, a product and the conversions cost a few ulps.
 constexpr double kFloatRelative = 1e-5;
 
@@ -35,7 +34,7 @@ std::vector<std::vector<Complex>> RandomGains(int64_t pixels, int order, std::mt
   std::vector<std::vector<Complex>> gain(static_cast<size_t>(order + 1),
                                          std::vector<Complex>(static_cast<size_t>(pixels), 1.0));
   for (int j = 1; j <= order; ++j) {
-    for (Complex& g : gain[j]) g = std::polar(0.5 + u(rng), 2.0 * kPi * u(rng));
+    for (Complex& g : gain[j]) g = std::polar(0.5 + u(rng), 2.0 * std::numbers::pi * u(rng));
   }
   return gain;
 }
@@ -76,7 +75,7 @@ std::vector<std::vector<Complex>> SceneMoments(int64_t pixels, int order, std::m
                                       std::vector<Complex>(static_cast<size_t>(pixels)));
   for (int64_t p = 0; p < pixels; ++p) {
     const double w0 = 1.0 + 4.0 * u(rng), w1 = 2.0 * u(rng);
-    const double phi0 = 2.0 * kPi * u(rng), phi1 = 2.0 * kPi * u(rng);
+    const double phi0 = 2.0 * std::numbers::pi * u(rng), phi1 = 2.0 * std::numbers::pi * u(rng);
     for (int j = 0; j <= order; ++j) {
       c[j][p] = w0 * std::polar(1.0, j * phi0) + w1 * std::polar(1.0, j * phi1);
     }

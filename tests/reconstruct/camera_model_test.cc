@@ -14,7 +14,7 @@ namespace {
 
 constexpr ImageGeometry kGeometry{.width = 7, .height = 5};
 // float round trips of a division and a multiplication by the same ray factor (<= 1.2 here).
-constexpr double kFloatRelative = 4e-7;
+constexpr double kRayFloatRelative = 4e-7;
 
 PinholeIntrinsics Intrinsics() { return {.fx = 4.0, .fy = 5.0, .cx = 3.0, .cy = 2.0}; }
 
@@ -27,7 +27,7 @@ TEST(RangeFromDepth, InvertsDepthFromRange) {
   std::vector<float> back(range.size());
   RangeFromDepth(kGeometry, Intrinsics(), depth, back);
   for (size_t p = 0; p < range.size(); ++p) {
-    EXPECT_NEAR(back[p], range[p], kFloatRelative * range[p]) << p;
+    EXPECT_NEAR(back[p], range[p], kRayFloatRelative * range[p]) << p;
     EXPECT_LE(depth[p], range[p]) << "depth is range times cos of the ray's angle";
   }
 }
@@ -39,7 +39,7 @@ TEST(RangeFromDepth, IsDepthTimesTheLengthOfTheRayThroughZEqualsOne) {
   // The principal point (3, 2): straight ahead.
   EXPECT_FLOAT_EQ(range[2 * 7 + 3], 2.0f);
   // Pixel (0, 0): ray (-3/4, -2/5, 1).
-  EXPECT_NEAR(range[0], 2.0 * std::sqrt(0.75 * 0.75 + 0.4 * 0.4 + 1.0), kFloatRelative * 2.5);
+  EXPECT_NEAR(range[0], 2.0 * std::sqrt(0.75 * 0.75 + 0.4 * 0.4 + 1.0), kRayFloatRelative * 2.5);
 }
 
 TEST(RangeFromDepth, APixelWithoutDepthHasNoRange) {

@@ -15,7 +15,7 @@ namespace transient {
 namespace {
 
 constexpr double kCumulativeTolerance = 1e-8;  // relative to c_0
-constexpr double kEpsilon = 4e-3;              // thesis §8.5: the sharpest peaks we produce
+constexpr double kSharpestEpsilon = 4e-3;      // thesis §8.5: the sharpest peaks we produce
 
 std::vector<double> UniformPhasesForTest(int count) {  // 0 .. 2 pi, both ends
   std::vector<double> phases(count);
@@ -43,7 +43,7 @@ TEST(Cumulative, MatchesNumericalIntegrationAndEndsAtZerothMoment) {
     for (int trial = 0; trial < 3; ++trial) {
       const auto measure = testing::RandomSparseMeasure(1 + rng() % (m + 1), 0.05, 0.0, rng);
       std::vector<Complex> c = measure.Moments(m);
-      Bias(c, kEpsilon, BiasMode::kRaiseZeroth);
+      Bias(c, kSharpestEpsilon, BiasMode::kRaiseZeroth);
       std::vector<Complex> q(m + 1);
       ASSERT_TRUE(Levinson(c, q));
       MeseCumulative cumulative;
@@ -109,7 +109,7 @@ TEST(Cumulative, EvaluateMatchesTheReferenceAtSharpPeaksAndOnQuadrature) {
   for (int m = 1; m <= kMaxOrder; ++m) {
     const auto measure = testing::RandomSparseMeasure(1 + rng() % (m + 1), 0.05, 0.0, rng);
     std::vector<Complex> c = measure.Moments(m);
-    Bias(c, kEpsilon, BiasMode::kRaiseZeroth);
+    Bias(c, kSharpestEpsilon, BiasMode::kRaiseZeroth);
     std::vector<Complex> q(m + 1);
     ASSERT_TRUE(Levinson(c, q));
     MeseCumulative cumulative;

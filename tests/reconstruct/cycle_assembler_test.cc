@@ -17,7 +17,7 @@ using ::testing::HasSubstr;
 using ::transient::testing::IsOk;
 using ::transient::testing::StatusIs;
 
-constexpr ImageGeometry kGeometry{5, 4};
+constexpr ImageGeometry kAssemblerGeometry{5, 4};
 
 AcquisitionSchedule MakeSchedule(int takes = 1) {
   ScheduleOptions options;
@@ -38,8 +38,8 @@ std::vector<RawFrame> Frames(const AcquisitionSchedule& schedule, int64_t cycle)
     f.config = schedule.exposures()[i];
     f.config.cycle = cycle;
     f.config.sequence = static_cast<uint64_t>(cycle * n + i);
-    f.geometry = kGeometry;
-    f.pixels.assign(static_cast<size_t>(kGeometry.pixel_count()),
+    f.geometry = kAssemblerGeometry;
+    f.pixels.assign(static_cast<size_t>(kAssemblerGeometry.pixel_count()),
                     static_cast<float>(f.config.sequence));
     frames.push_back(f);
   }
@@ -47,7 +47,7 @@ std::vector<RawFrame> Frames(const AcquisitionSchedule& schedule, int64_t cycle)
 }
 
 CycleAssembler MakeAssembler(const AcquisitionSchedule& schedule) {
-  absl::StatusOr<CycleAssembler> assembler = CycleAssembler::Create(schedule, kGeometry);
+  absl::StatusOr<CycleAssembler> assembler = CycleAssembler::Create(schedule, kAssemblerGeometry);
   EXPECT_THAT(assembler.status(), IsOk());
   return *std::move(assembler);
 }
@@ -117,7 +117,7 @@ TEST(CycleAssembler, RecoversAfterAMissingFrame) {
   EXPECT_EQ(assembler.dropped_frames(), 10);
 
   // And the assembled cycle demodulates.
-  absl::StatusOr<Demodulator> demodulator = Demodulator::Create(schedule, kGeometry, {});
+  absl::StatusOr<Demodulator> demodulator = Demodulator::Create(schedule, kAssemblerGeometry, {});
   ASSERT_THAT(demodulator.status(), IsOk());
   MomentImage out;
   EXPECT_THAT(demodulator->Demodulate(cycle, &out), IsOk());

@@ -22,7 +22,6 @@ using ::testing::HasSubstr;
 using ::transient::testing::IsOk;
 using ::transient::testing::StatusIs;
 
-constexpr double kPi = std::numbers::pi;
 // Raw values are ~60 sensor units in float32 (ulp ~4e-6); a phasor is a few differences of them
 // divided by |g| >= 0.6.
 constexpr double kFloatTolerance = 1e-4;
@@ -161,7 +160,7 @@ TEST(Demodulator, FourBucketKeepsTheThirdHarmonicThatArccosSamplingSuppresses) {
     MomentImage out;
     ASSERT_THAT(demodulator.Demodulate(frames, &out), IsOk());
     const double phase = std::arg(Complex(out.real_plane(1)[0], out.imag_plane(1)[0]));
-    const double phase_error = std::abs(std::remainder(phase - tau_phase, 2.0 * kPi));
+    const double phase_error = std::abs(std::remainder(phase - tau_phase, 2.0 * std::numbers::pi));
     if (scheme == SamplingScheme::kFourBucket) {
       four_bucket_error = phase_error;
       EXPECT_GT(phase_error, 0.1);  // the 3rd harmonic folds onto the -1st: 0.14 rad at tau = 1

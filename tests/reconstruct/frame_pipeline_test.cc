@@ -23,7 +23,7 @@ using ::testing::HasSubstr;
 using ::transient::testing::IsOk;
 using ::transient::testing::StatusIs;
 
-constexpr ImageGeometry kGeometry{.width = 12, .height = 9};
+constexpr ImageGeometry kPipelineGeometry{.width = 12, .height = 9};
 
 // The bit patterns of `values`: equal vectors of them mean equal floats, NaN included.
 std::vector<uint32_t> Bits(const std::vector<float>& values) {
@@ -60,13 +60,13 @@ TEST(FramePipeline, MeasureIsDemodulationThenCalibrationThenSmoothingBitForBit) 
   std::mt19937_64 rng(11);
   const AcquisitionSchedule schedule =
       testing::MakeSchedule(SamplingScheme::kArccos, 8, ZerothScheme::kUnmodulatedPair, 3);
-  const testing::Scene scene = testing::RandomScene(kGeometry, schedule.order(), rng);
-  const auto calibration = RandomCalibration(schedule, kGeometry, rng);
+  const testing::Scene scene = testing::RandomScene(kPipelineGeometry, schedule.order(), rng);
+  const auto calibration = RandomCalibration(schedule, kPipelineGeometry, rng);
   constexpr double kSigma = 0.8;
   absl::StatusOr<FramePipeline> pipeline = FramePipeline::Create(
-      schedule, kGeometry, {.calibration = calibration, .smoothing_sigma_px = kSigma}, {});
+      schedule, kPipelineGeometry, {.calibration = calibration, .smoothing_sigma_px = kSigma}, {});
   ASSERT_THAT(pipeline.status(), IsOk());
-  absl::StatusOr<Demodulator> demodulator = Demodulator::Create(schedule, kGeometry, {});
+  absl::StatusOr<Demodulator> demodulator = Demodulator::Create(schedule, kPipelineGeometry, {});
   ASSERT_THAT(demodulator.status(), IsOk());
   for (int64_t cycle = 0; cycle < 2; ++cycle) {
     const std::vector<RawFrame> frames = testing::SynthesizeCycle(schedule, scene, cycle, 0.5, rng);
@@ -88,10 +88,10 @@ TEST(FramePipeline, SolveIsTheCoresSolveWithTheGivenOptions) {
   std::mt19937_64 rng(12);
   const AcquisitionSchedule schedule =
       testing::MakeSchedule(SamplingScheme::kFourBucket, 1, ZerothScheme::kUnmodulatedPair, 1);
-  const testing::Scene scene = testing::RandomScene(kGeometry, schedule.order(), rng);
+  const testing::Scene scene = testing::RandomScene(kPipelineGeometry, schedule.order(), rng);
   const SolveOptions solve{.bias_epsilon = 1e-2, .bias_mode = BiasMode::kScaleMoments};
   absl::StatusOr<FramePipeline> pipeline =
-      FramePipeline::Create(schedule, kGeometry, {.smoothing_sigma_px = 0.0}, solve);
+      FramePipeline::Create(schedule, kPipelineGeometry, {.smoothing_sigma_px = 0.0}, solve);
   ASSERT_THAT(pipeline.status(), IsOk());
   MomentImage moments;
   ASSERT_THAT(pipeline->Measure(testing::SynthesizeCycle(schedule, scene, 0, 0.0, rng), &moments),
@@ -110,11 +110,11 @@ TEST(FramePipeline, ACalibrationThatDoesNotFitIsRefusedAndTheOldOneKept) {
       testing::MakeSchedule(SamplingScheme::kArccos, 8, ZerothScheme::kUnmodulatedPair, 1);
   const auto other_size = RandomCalibration(schedule, {.width = 10, .height = 9}, rng);
   EXPECT_THAT(
-      FramePipeline::Create(schedule, kGeometry, {.calibration = other_size}, {}).status(),
+      FramePipeline::Create(schedule, kPipelineGeometry, {.calibration = other_size}, {}).status(),
       StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("10x9")));
-  const auto fitting = RandomCalibration(schedule, kGeometry, rng);
+  const auto fitting = RandomCalibration(schedule, kPipelineGeometry, rng);
   absl::StatusOr<FramePipeline> pipeline =
-      FramePipeline::Create(schedule, kGeometry, {.calibration = fitting}, {});
+      FramePipeline::Create(schedule, kPipelineGeometry, {.calibration = fitting}, {});
   ASSERT_THAT(pipeline.status(), IsOk());
   EXPECT_THAT(pipeline->SetCalibration(other_size),
               StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("10x9")));
@@ -126,18 +126,21 @@ TEST(FramePipeline, ACalibrationThatDoesNotFitIsRefusedAndTheOldOneKept) {
 TEST(FramePipeline, BadOptionsAreRefusedNamingTheField) {
   const AcquisitionSchedule schedule =
       testing::MakeSchedule(SamplingScheme::kArccos, 8, ZerothScheme::kUnmodulatedPair, 1);
-  EXPECT_THAT(FramePipeline::Create(schedule, kGeometry, {.smoothing_sigma_px = -1.0}, {}).status(),
-              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("smoothing_sigma_px")));
-  EXPECT_THAT(FramePipeline::Create(schedule, kGeometry, {}, {.bias_epsilon = 0.0}).status(),
-              StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("bias_epsilon")));
+  EXPECT_THAT(
+      FramePipeline::Create(schedule, kPipelineGeometry, {.smoothing_sigma_px = -1.0}, {}).status(),
+      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("smoothing_sigma_px")));
+  EXPECT_THAT(
+      FramePipeline::Create(schedule, kPipelineGeometry, {}, {.bias_epsilon = 0.0}).status(),
+      StatusIs(absl::StatusCode::kInvalidArgument, HasSubstr("bias_epsilon")));
 }
 
 TEST(FramePipeline, AnIncompleteCycleIsRefusedAndTheNextOneMeasured) {
   std::mt19937_64 rng(14);
   const AcquisitionSchedule schedule =
       testing::MakeSchedule(SamplingScheme::kArccos, 8, ZerothScheme::kUnmodulatedPair, 1);
-  const testing::Scene scene = testing::RandomScene(kGeometry, schedule.order(), rng);
-  absl::StatusOr<FramePipeline> pipeline = FramePipeline::Create(schedule, kGeometry, {}, {});
+  const testing::Scene scene = testing::RandomScene(kPipelineGeometry, schedule.order(), rng);
+  absl::StatusOr<FramePipeline> pipeline =
+      FramePipeline::Create(schedule, kPipelineGeometry, {}, {});
   ASSERT_THAT(pipeline.status(), IsOk());
   std::vector<RawFrame> incomplete = testing::SynthesizeCycle(schedule, scene, 0, 0.0, rng);
   incomplete.pop_back();

@@ -16,13 +16,13 @@ namespace {
 
 using ::testing::HasSubstr;
 
-constexpr double kFrequency = 23e6;
-constexpr ImageGeometry kGeometry{7, 5};
+constexpr double kReconstructorFrequency = 23e6;
+constexpr ImageGeometry kReconstructorGeometry{7, 5};
 
 // A frame whose pixel p has `count` returns, with the first at a phase that grows with p.
 MomentImage MakeFrame(int m, std::mt19937_64& rng, std::vector<double>* first_phase) {
-  MomentImage image(kGeometry, m);
-  const int64_t pixels = kGeometry.pixel_count();
+  MomentImage image(kReconstructorGeometry, m);
+  const int64_t pixels = kReconstructorGeometry.pixel_count();
   first_phase->assign(pixels, 0.0);
   for (int64_t p = 0; p < pixels; ++p) {
     testing::SparseMeasure measure;
@@ -45,7 +45,7 @@ TEST(Reconstructor, ImageSolveMatchesPerPixelLevinson) {
   std::vector<double> first;
   const MomentImage image = MakeFrame(4, rng, &first);
   const SolvedImage solved = Solve(image, SolveOptions{});
-  const int64_t pixels = kGeometry.pixel_count();
+  const int64_t pixels = kReconstructorGeometry.pixel_count();
   for (int64_t p = 0; p < pixels; ++p) {
     ASSERT_TRUE(solved.valid(p));
     std::vector<Complex> c(5), q(5), got(5);
@@ -64,16 +64,17 @@ TEST(Reconstructor, FlagsInvalidInputWithoutAbortingTheFrame) {
   image.imag_plane(1)[1] = std::numeric_limits<float>::infinity();   // Inf moment
   image.real_plane(0)[2] = 0.0f;                                     // no light
   image.real_plane(0)[3] = -1.0f;                                    // negative c_0
-  image.valid.assign(kGeometry.pixel_count(), 1);
+  image.valid.assign(kReconstructorGeometry.pixel_count(), 1);
   image.valid[4] = 0;  // marked by the source
   const SolvedImage solved = Solve(image, SolveOptions{});
   for (int p = 0; p < 5; ++p) {
     EXPECT_TRUE(solved.flags[p] & kFlagInvalidInput) << p;
     EXPECT_TRUE(std::isnan(solved.q_real[p]));
   }
-  for (int64_t p = 5; p < kGeometry.pixel_count(); ++p) EXPECT_TRUE(solved.valid(p)) << p;
+  for (int64_t p = 5; p < kReconstructorGeometry.pixel_count(); ++p)
+    EXPECT_TRUE(solved.valid(p)) << p;
 
-  std::vector<float> density(3 * kGeometry.pixel_count());
+  std::vector<float> density(3 * kReconstructorGeometry.pixel_count());
   DensitySlices(solved, UniformPhases(3), density);
   EXPECT_TRUE(std::isnan(density[0]));
   EXPECT_FALSE(std::isnan(density[5]));
@@ -101,7 +102,8 @@ TEST(Reconstructor, EstimatesTheZerothMomentWhenNotMeasured) {
   std::vector<double> first;
   MomentImage image = MakeFrame(3, rng, &first);
   const double measured = image.real_plane(0)[0];
-  for (int64_t p = 0; p < kGeometry.pixel_count(); ++p) image.real_plane(0)[p] = 123.0f;  // ignored
+  for (int64_t p = 0; p < kReconstructorGeometry.pixel_count(); ++p)
+    image.real_plane(0)[p] = 123.0f;  // ignored
   SolveOptions options;
   options.zeroth = ZerothMoment::kEstimate;
   const SolvedImage solved = Solve(image, options);
@@ -118,7 +120,7 @@ TEST(Reconstructor, DensitySumsToZerothMomentAndCumulativeEndsThere) {
   const MomentImage image = MakeFrame(3, rng, &first);
   const SolvedImage solved = Solve(image, SolveOptions{});
   const int bins = 2048;
-  const int64_t pixels = kGeometry.pixel_count();
+  const int64_t pixels = kReconstructorGeometry.pixel_count();
   std::vector<float> density(bins * pixels), cumulative(bins * pixels);
   const auto phases = UniformPhases(bins);
   DensitySlices(solved, phases, density);
@@ -139,9 +141,9 @@ TEST(Reconstructor, RangeOfEveryPixelIsItsFirstReturn) {
   std::vector<double> first;
   const MomentImage image = MakeFrame(4, rng, &first);
   const SolvedImage solved = Solve(image, SolveOptions{});
-  const int64_t pixels = kGeometry.pixel_count();
+  const int64_t pixels = kReconstructorGeometry.pixel_count();
   RangeOptions options;
-  options.base_frequency_hz = kFrequency;
+  options.base_frequency_hz = kReconstructorFrequency;
   std::vector<float> mese(pixels), pisarenko_range(pixels);
   std::vector<uint8_t> flags(pixels, 0);
   MeseRange(solved, options, mese, flags);
@@ -150,7 +152,7 @@ TEST(Reconstructor, RangeOfEveryPixelIsItsFirstReturn) {
   std::vector<float> direct(pixels), indirect(pixels);
   SeparateDirectIndirect(pisarenko, options.threshold, direct, indirect);
   for (int64_t p = 0; p < pixels; ++p) {
-    const double truth = PhaseToRange(first[p], kFrequency);
+    const double truth = PhaseToRange(first[p], kReconstructorFrequency);
     EXPECT_NEAR(mese[p], truth, 0.05) << p;  // m = 4 with a uniform part: a few cm
     EXPECT_NEAR(pisarenko_range[p], truth, 0.05) << p;
     EXPECT_EQ(flags[p], 0);

@@ -14,7 +14,7 @@
 namespace transient {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 constexpr double kAlpha64 = kTrigonometricBias64;
 // The closed form is exact for the biased moments; the bias moves the answer by at most α
 // (header), the remaining slack is rounding in the 3x3 solves with λ_min >= α (double).
@@ -31,14 +31,14 @@ constexpr double kLightLeakFloat = 0.02;
 
 using Mixture = testing::DepthMixture;  // tests/reconstruct/depth_mixture.h
 
-TrigonometricMomentsF ToFloat(const TrigonometricMoments& t) {
+TrigonometricMomentsF ToFloatMoments(const TrigonometricMoments& t) {
   TrigonometricMomentsF f;
   for (int j = 0; j < kTrigonometricMomentCount; ++j) f[j] = static_cast<float>(t[j]);
   return f;
 }
 
 // 1..6 surfaces; some at the ends of the range, some in clusters 1e-4 wide.
-Mixture RandomMixture(int trial, std::mt19937_64& rng) {
+Mixture RandomMsmMixture(int trial, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> depth(-1.0, 1.0), weight(0.01, 1.0);
   Mixture m;
   const int count = 1 + trial % 6;
@@ -79,7 +79,7 @@ TEST(TrigonometricMsm, OneSurfaceGivesTheExactFractionUpToTheBias) {
       const double reference = TrigonometricOcclusionReference(m.Trigonometric(), z_f, kAlpha64);
       EXPECT_LE(reference, truth + kAlpha64) << "z = " << z << ", z_f = " << z_f;
       EXPECT_GE(reference, truth - kLightLeak) << "z = " << z << ", z_f = " << z_f;
-      EXPECT_NEAR(TrigonometricOcclusion(ToFloat(m.Trigonometric()), z_f, kAlpha64), truth,
+      EXPECT_NEAR(TrigonometricOcclusion(ToFloatMoments(m.Trigonometric()), z_f, kAlpha64), truth,
                   kLightLeakFloat)
           << "z = " << z << ", z_f = " << z_f;
     }
@@ -100,7 +100,7 @@ TEST(TrigonometricMsm, TwoSurfacesGiveTheExactFractionUpToTheBias) {
       EXPECT_LE(reference, truth + kAlpha64) << "z_f = " << z_f;
       EXPECT_GE(reference, truth - kLightLeak) << "z = (" << m.z[0] << ", " << m.z[1]
                                                << "), z_f = " << z_f;
-      EXPECT_NEAR(TrigonometricOcclusion(ToFloat(m.Trigonometric()), z_f, kAlpha64), truth,
+      EXPECT_NEAR(TrigonometricOcclusion(ToFloatMoments(m.Trigonometric()), z_f, kAlpha64), truth,
                   kLightLeakFloat)
           << "z = (" << m.z[0] << ", " << m.z[1] << "), z_f = " << z_f;
     }
@@ -111,7 +111,7 @@ TEST(TrigonometricMsm, BoundNeverExceedsTheTruthByMoreThanTheBias) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> query(-1.1, 1.1);
   for (int trial = 0; trial < 300; ++trial) {
-    const Mixture m = RandomMixture(trial, rng);
+    const Mixture m = RandomMsmMixture(trial, rng);
     const TrigonometricMoments t = m.Trigonometric();
     for (int k = 0; k < 8; ++k) {
       const double z_f = query(rng);
@@ -130,7 +130,7 @@ constexpr double kMonotoneSlack = 4 * kAlpha64;
 TEST(TrigonometricMsm, BoundIsNonDecreasingUpToTheBiasInTheQueryDepth) {
   std::mt19937_64 rng(11);
   for (int trial = 0; trial < 60; ++trial) {
-    const TrigonometricMoments t = RandomMixture(trial, rng).Trigonometric();
+    const TrigonometricMoments t = RandomMsmMixture(trial, rng).Trigonometric();
     double previous = 0.0;
     for (double z_f = -1.1; z_f <= 1.1; z_f += 0.01) {
       const double bound = TrigonometricOcclusionReference(t, z_f, kAlpha64);
@@ -145,13 +145,14 @@ TEST(TrigonometricMsm, FloatAgreesWithTheReference) {
   std::uniform_real_distribution<double> query(-1.1, 1.1);
   double worst = 0.0;
   for (int trial = 0; trial < 300; ++trial) {
-    const Mixture m = RandomMixture(trial, rng);
+    const Mixture m = RandomMsmMixture(trial, rng);
     const TrigonometricMoments t = m.Trigonometric();
     for (int k = 0; k < 8; ++k) {
       const double z_f = query(rng);
       if (m.DistanceTo(z_f) < 0.01) continue;  // the bound jumps at a surface
       const double reference = TrigonometricOcclusionReference(t, z_f, kAlpha64);
-      const float single = TrigonometricOcclusion(ToFloat(t), static_cast<float>(z_f), kAlpha64);
+      const float single =
+          TrigonometricOcclusion(ToFloatMoments(t), static_cast<float>(z_f), kAlpha64);
       worst = std::max(worst, std::abs(single - reference));
       EXPECT_NEAR(single, reference, kFloatTolerance) << "trial " << trial << ", z_f = " << z_f;
     }
@@ -167,7 +168,7 @@ TEST(TrigonometricMsm, NearSingularInputStaysFiniteAndInTheUnitInterval) {
     for (double z_f = -1.2; z_f <= 1.2; z_f += 0.01) {
       for (const double alpha : {0.0, kTrigonometricBias128, kAlpha64}) {
         const double reference = TrigonometricOcclusionReference(m.Trigonometric(), z_f, alpha);
-        const float single = TrigonometricOcclusion(ToFloat(m.Trigonometric()), z_f, alpha);
+        const float single = TrigonometricOcclusion(ToFloatMoments(m.Trigonometric()), z_f, alpha);
         EXPECT_TRUE(reference >= 0.0 && reference <= 1.0) << reference;
         EXPECT_TRUE(single >= 0.0f && single <= 1.0f) << single;
       }
@@ -178,22 +179,22 @@ TEST(TrigonometricMsm, NearSingularInputStaysFiniteAndInTheUnitInterval) {
 TEST(TrigonometricMsm, InvalidInputGivesZeroNeverNaN) {
   const TrigonometricMoments valid = Mixture{{0.0}, {1.0}}.Trigonometric();
   EXPECT_EQ(TrigonometricOcclusionReference(valid, kNaN, kAlpha64), 0.0);
-  EXPECT_EQ(TrigonometricOcclusion(ToFloat(valid), NAN, kAlpha64), 0.0f);
+  EXPECT_EQ(TrigonometricOcclusion(ToFloatMoments(valid), NAN, kAlpha64), 0.0f);
   // Far behind the only surface the bound still saturates near 1, not NaN.
-  EXPECT_GT(TrigonometricOcclusionReference(valid, kInf, kAlpha64), 0.99);
+  EXPECT_GT(TrigonometricOcclusionReference(valid, kInfinity, kAlpha64), 0.99);
   for (int j = 0; j < kTrigonometricMomentCount; ++j) {
     TrigonometricMoments bad = valid;
-    bad[j] = j % 2 == 0 ? kNaN : kInf;
+    bad[j] = j % 2 == 0 ? kNaN : kInfinity;
     EXPECT_EQ(TrigonometricOcclusionReference(bad, 0.5, kAlpha64), 0.0) << j;
-    EXPECT_EQ(TrigonometricOcclusion(ToFloat(bad), 0.5f, kAlpha64), 0.0f) << j;
+    EXPECT_EQ(TrigonometricOcclusion(ToFloatMoments(bad), 0.5f, kAlpha64), 0.0f) << j;
   }
   const TrigonometricMoments empty{};  // no valid depth in the footprint
   EXPECT_EQ(TrigonometricOcclusionReference(empty, 0.5, kAlpha64), 0.0);
-  EXPECT_EQ(TrigonometricOcclusion(ToFloat(empty), 0.5f, kAlpha64), 0.0f);
+  EXPECT_EQ(TrigonometricOcclusion(ToFloatMoments(empty), 0.5f, kAlpha64), 0.0f);
   // |c_1| > c_0 is no moment vector: C(c') is indefinite.
   const TrigonometricMoments impossible{1.0, 1.5, 0.0, 1.0, 0.0};
   EXPECT_EQ(TrigonometricOcclusionReference(impossible, 0.5, kAlpha64), 0.0);
-  EXPECT_EQ(TrigonometricOcclusion(ToFloat(impossible), 0.5f, kAlpha64), 0.0f);
+  EXPECT_EQ(TrigonometricOcclusion(ToFloatMoments(impossible), 0.5f, kAlpha64), 0.0f);
 }
 
 TEST(TrigonometricMsm, CoverageBelowOneIsDividedOut) {

@@ -36,7 +36,7 @@ using testing::ReadPng;
 using ::transient::testing::ScratchDirectory;
 using ::transient::testing::StatusIs;
 
-constexpr ImageGeometry kGeometry = testing::kViewGeometry;
+constexpr ImageGeometry kViewGeometry = testing::kViewGeometry;
 
 TransientFrame ReadFrame(const std::string& path, int64_t index) {
   absl::StatusOr<ReconstructionReader> reader = ReconstructionReader::Open(path);
@@ -88,7 +88,7 @@ TEST(ViewCommand, DrawsEveryPictureKindAtItsExpectedSize) {
   };
   const ViewScales& scales = summary->scales;
   const ImageFigure slice = SliceFigure(frame, 3, scales.density);
-  EXPECT_EQ(DataArea(slice).size(), cv::Size(kGeometry.width * 40, kGeometry.height * 40));
+  EXPECT_EQ(DataArea(slice).size(), cv::Size(kViewGeometry.width * 40, kViewGeometry.height * 40));
   expect_size("slices/slice_003.png", slice);
   expect_size("cumulative/slice_003.png", CumulativeFigure(frame, 3, scales.cumulative));
   expect_size("streak_y002.png", StreakFigure(frame, 2, scales.density));
@@ -116,7 +116,7 @@ TEST(ViewCommand, OneDensityScaleColoursEqualValuesEquallyInEveryFrameAndBin) {
   std::vector<float> all;
   for (int f = 0; f < testing::kViewFrames; ++f) {
     for (int n = 0; n < testing::kViewBins; ++n) {
-      for (int64_t p = 0; p < kGeometry.pixel_count(); ++p) {
+      for (int64_t p = 0; p < kViewGeometry.pixel_count(); ++p) {
         all.push_back(testing::KnownDensity(f, n, p));
       }
     }
@@ -147,15 +147,16 @@ TEST(ViewCommand, StreakImageRowsAreBinsAndColumnsArePixelsOfTheScanline) {
   const TransientFrame frame = ReadFrame(input, 1);
   constexpr int kRow = 6;
   const std::vector<float> streak = StreakPlane(frame, kRow);
-  ASSERT_EQ(streak.size(), static_cast<size_t>(testing::kViewBins * kGeometry.width));
+  ASSERT_EQ(streak.size(), static_cast<size_t>(testing::kViewBins * kViewGeometry.width));
   for (int n = 0; n < testing::kViewBins; ++n) {
-    for (int x = 0; x < kGeometry.width; ++x) {
-      ASSERT_EQ(streak[n * kGeometry.width + x],
-                testing::KnownDensity(1, n, int64_t{kRow} * kGeometry.width + x));
+    for (int x = 0; x < kViewGeometry.width; ++x) {
+      ASSERT_EQ(streak[n * kViewGeometry.width + x],
+                testing::KnownDensity(1, n, int64_t{kRow} * kViewGeometry.width + x));
     }
   }
   const ImageFigure figure = StreakFigure(frame, kRow, 12.0);
-  EXPECT_EQ(figure.geometry, (ImageGeometry{.width = kGeometry.width, .height = testing::kViewBins}));
+  EXPECT_EQ(figure.geometry,
+            (ImageGeometry{.width = kViewGeometry.width, .height = testing::kViewBins}));
   EXPECT_DOUBLE_EQ(figure.y.begin, -50.0 / testing::kViewBins / 2);  // half a bin before 0 ns
   EXPECT_DOUBLE_EQ(figure.y.end, 50.0 - 50.0 / testing::kViewBins / 2);
 }
@@ -202,15 +203,15 @@ TEST(ViewCommand, PointCloudHasOnePointPerFiniteRangeAlongEachPixelsRay) {
   const AsciiPly ply = ReadAsciiPly(dir.File("p.ply"));
   EXPECT_THAT(std::vector<std::string>(ply.header.begin(), ply.header.begin() + 4),
               ElementsAre("ply", "format ascii 1.0", "comment test",
-                          absl::StrCat("element vertex ", kGeometry.pixel_count() - 1)));
+                          absl::StrCat("element vertex ", kViewGeometry.pixel_count() - 1)));
   EXPECT_THAT(std::vector<std::string>(ply.header.begin() + 4, ply.header.end()),
               ElementsAre("property float x", "property float y", "property float z",
                           "property uchar red", "property uchar green", "property uchar blue",
                           "end_header"));
-  ASSERT_EQ(ply.vertices.size(), static_cast<size_t>(kGeometry.pixel_count() - 1));
+  ASSERT_EQ(ply.vertices.size(), static_cast<size_t>(kViewGeometry.pixel_count() - 1));
 
   // Pixel (2, 1) is point 14 (pixel (3, 2), later in the scan, has no range).
-  const double range = testing::KnownRange(0, 1 * kGeometry.width + 2);
+  const double range = testing::KnownRange(0, 1 * kViewGeometry.width + 2);
   const double u = (2 - 5.5) / 10.0, v = (1 - 3.5) / 12.0, norm = std::sqrt(u * u + v * v + 1);
   constexpr double kFloatTolerance = 1e-6;  // float32 coordinates of a ~1 m point
   const std::vector<double>& point = ply.vertices[14];
@@ -259,7 +260,7 @@ TEST(ViewCommand, PointCloudTakesTheIntrinsicsOfACaptureFileOfTheSameCamera) {
   args.ply_format = PlyFormat::kAscii;
   ASSERT_THAT(RunView(args).status(), IsOk());
   const AsciiPly ply = ReadAsciiPly(dir.File("out/frame_001/points.ply"));
-  EXPECT_EQ(ply.vertices.size(), static_cast<size_t>(kGeometry.pixel_count() - 1));
+  EXPECT_EQ(ply.vertices.size(), static_cast<size_t>(kViewGeometry.pixel_count() - 1));
 }
 
 TEST(ViewCommand, PixelPlotDrawsTheDensityCurveAndPisarenkoStems) {

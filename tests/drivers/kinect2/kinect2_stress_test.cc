@@ -29,7 +29,8 @@ namespace {
 using ::transient::testing::IsOk;
 namespace emu = ::transient::kinect2::testing;
 
-float Sample(uint32_t n, int s, int x, int y) {  // on the companding grid, see the source test
+// On the companding grid, see the source test.
+float StressSample(uint32_t n, int s, int x, int y) {
   return static_cast<float>(64 * (((static_cast<int>(n % 7) * 10 + s) * 2 + (x + y) % 2) - 70));
 }
 
@@ -64,7 +65,7 @@ TEST(Kinect2Stress, StreamsAtTheCameraRateWithRandomFaultsCountingEveryLoss) {
   options.renderer = [](uint32_t n, int s) {
     std::vector<float> v(512 * 424);
     for (int y = 0; y < 424; ++y) {
-      for (int x = 0; x < 512; ++x) v[y * 512 + x] = Sample(n, s, x, y);
+      for (int x = 0; x < 512; ++x) v[y * 512 + x] = StressSample(n, s, x, y);
     }
     return v;
   };
@@ -100,7 +101,7 @@ TEST(Kinect2Stress, StreamsAtTheCameraRateWithRandomFaultsCountingEveryLoss) {
     ASSERT_THAT(status, IsOk());
     const int k = static_cast<int>(frame.config.sequence % 10);
     const uint32_t n = static_cast<uint32_t>(frame.config.cycle);  // the stream starts at 0
-    wrong += frame.pixels[211 * 512 + 300] != Sample(n, k, 300, 211);
+    wrong += frame.pixels[211 * 512 + 300] != StressSample(n, k, 300, 211);
     if (k == 8 && ++delivered == 30) {
       rss_after_warmup = ResidentBytes();
       fds_after_warmup = OpenFds();

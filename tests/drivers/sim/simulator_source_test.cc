@@ -24,10 +24,10 @@ using ::testing::HasSubstr;
 using ::transient::testing::IsOk;
 using ::transient::testing::StatusIs;
 
-constexpr absl::string_view kSmall = "pace=fast&width=24&height=16";
+constexpr absl::string_view kSmallFast = "pace=fast&width=24&height=16";
 
 TEST(SimulatorSource, NextBeforeStartIsFailedPrecondition) {
-  auto source = OpenOrDie(absl::StrCat("sim:mirrors?", kSmall));
+  auto source = OpenOrDie(absl::StrCat("sim:mirrors?", kSmallFast));
   RawFrame frame;
   EXPECT_THAT(source->Next(absl::Seconds(1), &frame),
               StatusIs(absl::StatusCode::kFailedPrecondition, HasSubstr("before Start")));
@@ -41,7 +41,7 @@ TEST(SimulatorSource, NextBeforeStartIsFailedPrecondition) {
 }
 
 TEST(SimulatorSource, FramesLimitEndsWithOutOfRangeAfterThatManyCycles) {
-  auto source = OpenOrDie(absl::StrCat("sim:mirrors?frames=2&", kSmall));
+  auto source = OpenOrDie(absl::StrCat("sim:mirrors?frames=2&", kSmallFast));
   ASSERT_THAT(source->Start(), IsOk());
   RawFrame frame;
   const int expected = 2 * source->schedule().raw_frames_per_frame();
@@ -52,7 +52,7 @@ TEST(SimulatorSource, FramesLimitEndsWithOutOfRangeAfterThatManyCycles) {
 }
 
 TEST(SimulatorSource, FramesFollowTheScheduleWithRunningMetadata) {
-  auto source = OpenOrDie(absl::StrCat("sim:corner?takes=2&readout=1e-3&", kSmall));
+  auto source = OpenOrDie(absl::StrCat("sim:corner?takes=2&readout=1e-3&", kSmallFast));
   ASSERT_THAT(source->Start(), IsOk());
   const AcquisitionSchedule& schedule = source->schedule();
   const double period = 1.92e-3 + 1e-3;
@@ -76,7 +76,7 @@ TEST(SimulatorSource, FramesFollowTheScheduleWithRunningMetadata) {
 }
 
 TEST(SimulatorSource, StopAndStartContinueTheSequence) {
-  auto source = OpenOrDie(absl::StrCat("sim:sparse?", kSmall));
+  auto source = OpenOrDie(absl::StrCat("sim:sparse?", kSmallFast));
   RawFrame frame;
   ASSERT_THAT(source->Start(), IsOk());
   ASSERT_THAT(source->Next(absl::Seconds(1), &frame), IsOk());
@@ -90,7 +90,8 @@ TEST(SimulatorSource, StopAndStartContinueTheSequence) {
 // unplug_every seconds, counted from the process's first simulator; Next and opening are then
 // Unavailable, and once it is back a new source delivers again.
 TEST(SimulatorSource, UnpluggedCameraIsUnavailableAndComesBack) {
-  const std::string uri = absl::StrCat("sim:mirrors?", kSmall, "&unplug_every=0.6&unplug_for=0.3");
+  const std::string uri =
+      absl::StrCat("sim:mirrors?", kSmallFast, "&unplug_every=0.6&unplug_for=0.3");
   // Wait for the plugged-in part of a period: opening works, then frames come until the
   // camera is gone.
   std::unique_ptr<CaptureSource> source;
@@ -339,7 +340,7 @@ TEST(GroundTruth, VideoFramesFollowTheScene) {
 // and delay errors of the camera, g_p * exp(i*2*pi*j*f*d_p).
 std::vector<Complex> CameraErrors(absl::string_view scene, int camera_seed) {
   auto source = OpenOrDie(absl::StrCat("sim:", scene, "?camera_seed=", camera_seed,
-                                       "&waveform=sinusoid&noise=none&adc_bits=0&", kSmall));
+                                       "&waveform=sinusoid&noise=none&adc_bits=0&", kSmallFast));
   EXPECT_THAT(source->Start(), IsOk());
   const auto moments = Demodulate(CaptureCycle(*source), source->schedule());
   const GroundTruth truth = *source->GroundTruthAt(0.0);

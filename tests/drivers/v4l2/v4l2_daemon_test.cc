@@ -43,7 +43,7 @@ using testing::SimulatedPhases;
 // The scene without the camera errors a calibration would remove (the v4l2: source has no
 // calibration scene; both daemons run uncalibrated; SimulatedPhases sets no delay), at the
 // emulated board's 64 x 48.
-constexpr char kScene[] = "mirrors?gain_error=0&delay_error_ns=0&waveform=sinusoid";
+constexpr char kDaemonScene[] = "mirrors?gain_error=0&delay_error_ns=0&waveform=sinusoid";
 constexpr char kSchedule[] =
     "f=20e6&m=3&scheme=four-bucket&zeroth=estimated&exposure=500e-6&width=64&height=48&"
     "delay_ns=0";
@@ -113,9 +113,9 @@ std::pair<double, double> RangeError(const std::vector<float>& range,
 }
 
 TEST_F(V4l2DaemonTest, RangeFromTheEmulatedSensorMatchesTheTruthLikeTheSimulatorsDoes) {
-  SimulatedPhases light(kScene, /*signed_output=*/true);
+  SimulatedPhases light(kDaemonScene, /*signed_output=*/true);
   AddSensor(light);
-  const std::string sim_uri = absl::StrCat("sim:", kScene, "&", kSchedule);
+  const std::string sim_uri = absl::StrCat("sim:", kDaemonScene, "&", kSchedule);
   absl::StatusOr<std::unique_ptr<CaptureSource>> sim = OpenSource(sim_uri);
   ASSERT_THAT(sim.status(), IsOk());
   absl::StatusOr<GroundTruth> truth = (*sim)->GroundTruthAt(0.0);
@@ -149,7 +149,7 @@ TEST_F(V4l2DaemonTest, RangeFromTheEmulatedSensorMatchesTheTruthLikeTheSimulator
 TEST_F(V4l2DaemonTest, MomentStateIsTheOneTheSameSceneGivesThroughSim) {
   // Noise-free, so that "within noise" is a bound on arithmetic: the emulated sensor renders
   // each harmonic with a camera at j*f, the sim: daemon all of them with one camera at f.
-  const std::string scene = absl::StrCat(kScene, "&noise=none");
+  const std::string scene = absl::StrCat(kDaemonScene, "&noise=none");
   SimulatedPhases light(scene, /*signed_output=*/true);
   AddSensor(light);
   std::map<std::string, std::vector<float>> from_v4l2, from_sim;
@@ -270,7 +270,7 @@ TEST_F(V4l2DaemonTest, HarmonicCancellationFromCapturesMatchesTheSimulatorsOwn) 
 }
 
 TEST_F(V4l2DaemonTest, ARecordingReplaysToTheSameMomentStateBitForBit) {
-  SimulatedPhases light(kScene, /*signed_output=*/true);
+  SimulatedPhases light(kDaemonScene, /*signed_output=*/true);
   // A slower sensor (a cycle every 0.31 s): every live cycle must reach the stream to be
   // compared, and the daemon under the sanitizers on a loaded machine dropped some at 78 ms.
   AddSensor(light, /*idle_ns=*/100'000'000);
@@ -316,7 +316,7 @@ TEST_F(V4l2DaemonTest, ARecordingReplaysToTheSameMomentStateBitForBit) {
 // holds the read-back integration time, the frequencies, and the driver's sequence numbers and
 // timestamps, gap included.
 TEST_F(V4l2DaemonTest, TransientRecordKeepsTheReadBackValuesAndTheDriversNumbering) {
-  SimulatedPhases light(kScene, /*signed_output=*/true);
+  SimulatedPhases light(kDaemonScene, /*signed_output=*/true);
   EmulatedNode node;
   node.formats = {{kFourccY12P, "12-bit Greyscale (MIPI Packed)"}};
   node.controls = testing::Mlx7502xControls();
@@ -366,7 +366,7 @@ int64_t StatsCounter(const v1::Stats& stats, const std::string& name) {
 }
 
 TEST_F(V4l2DaemonTest, FaultsShowInGetStatsAndAnUnpluggedSensorIsReconnected) {
-  SimulatedPhases light(kScene, /*signed_output=*/true);
+  SimulatedPhases light(kDaemonScene, /*signed_output=*/true);
   AddSensor(light);
   PipelineOptions options{.source_uri = kV4l2};
   Daemon daemon(options);
