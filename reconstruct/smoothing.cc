@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -12,44 +14,65 @@
 namespace transient {
 namespace {
 
-// The separable passes: out(p) = sum_d k[|d|] in(p + d) along a row or a column, with pixels
-// outside the image counting as 0 (their weight is 0 in the denominator too, which is what
-// renormalises the borders). Written as sums of shifted rows so that the inner loops vectorize.
-void HorizontalPass(const std::vector<float>& kernel, int width, int height, const float* in,
-                    float* out, std::vector<float>& padded) {
+// The separable passes, row by row: out(p) = sum_d k[|d|] in(p + d) along the row, then along
+// the column, with pixels outside the image counting as 0 (their weight is 0 in the
+// denominator too, which is what renormalises the borders). Output row y needs the row-passed
+// input rows y - r .. y + r, which a ring of 2r + 1 rows holds: each input row is read and
+// row-passed once, just before the first output row that needs it, instead of two passes over
+// whole scratch planes (three plane-sized buffers a thread). Input row y + r is read before
+// output row y is written, so
+// `emit` may write over the input in place. The arithmetic of each output value, and its order,
+// is that of the two passes over whole planes that this replaced. The loops over a row are
+// `omp simd`: their buffers never overlap, which GCC could not prove, and a select it would
+// otherwise leave as a branch a pixel.
+struct RowScratch {
+  std::vector<float> padded, ring, out;
+};
+
+template <typename Fill, typename Emit>
+void SmoothRows(const std::vector<float>& kernel, int width, int height, RowScratch& s, Fill fill,
+                Emit emit) {
   const int radius = static_cast<int>(kernel.size()) - 1;
-  padded.assign(static_cast<size_t>(width + 2 * radius), 0.0f);
-  for (int y = 0; y < height; ++y) {
-    const float* row = in + static_cast<int64_t>(y) * width;
-    float* dst = out + static_cast<int64_t>(y) * width;
-    std::copy_n(row, width, padded.data() + radius);
-    const float* center = padded.data() + radius;
+  const int rows = 2 * radius + 1;
+  s.padded.assign(static_cast<size_t>(width + 2 * radius), 0.0f);
+  s.ring.resize(static_cast<size_t>(rows) * width);
+  s.out.resize(static_cast<size_t>(width));
+  float* const center = s.padded.data() + radius;
+  const auto ring_row = [&](int y) {
+    return s.ring.data() + static_cast<int64_t>(y % rows) * width;
+  };
+  const auto row_pass = [&](int y) {
+    fill(y, center);  // width values; the padding stays 0
+    float* dst = ring_row(y);
+#pragma omp simd
     for (int x = 0; x < width; ++x) dst[x] = kernel[0] * center[x];
     for (int d = 1; d <= radius; ++d) {
       const float k = kernel[static_cast<size_t>(d)];
+#pragma omp simd
       for (int x = 0; x < width; ++x) dst[x] += k * (center[x - d] + center[x + d]);
     }
-  }
-}
-
-void VerticalPass(const std::vector<float>& kernel, int width, int height, const float* in,
-                  float* out) {
-  const int radius = static_cast<int>(kernel.size()) - 1;
+  };
+  for (int y = 0; y < std::min(radius, height); ++y) row_pass(y);
+  float* const dst = s.out.data();
   for (int y = 0; y < height; ++y) {
-    float* dst = out + static_cast<int64_t>(y) * width;
-    const float* src = in + static_cast<int64_t>(y) * width;
+    if (y + radius < height) row_pass(y + radius);
+    const float* src = ring_row(y);
+#pragma omp simd
     for (int x = 0; x < width; ++x) dst[x] = kernel[0] * src[x];
     for (int d = 1; d <= radius; ++d) {
       const float k = kernel[static_cast<size_t>(d)];
       if (y - d >= 0) {
-        const float* up = in + static_cast<int64_t>(y - d) * width;
+        const float* up = ring_row(y - d);
+#pragma omp simd
         for (int x = 0; x < width; ++x) dst[x] += k * up[x];
       }
       if (y + d < height) {
-        const float* down = in + static_cast<int64_t>(y + d) * width;
+        const float* down = ring_row(y + d);
+#pragma omp simd
         for (int x = 0; x < width; ++x) dst[x] += k * down[x];
       }
     }
+    emit(y, static_cast<const float*>(dst));
   }
 }
 
@@ -107,48 +130,68 @@ absl::Status GaussianSmooth(double sigma_px, MomentImage* moments, std::span<con
     assert(j >= 0 && j <= m);
     add_both(j);
   }
-  // Each thread's scratch, sized at its first use in a call: a thread_local named in the
-  // parallel bodies below is the running thread's own. So the weights and their norm, shared by
-  // every thread, are passed to them as pointers.
-  struct Scratch {
-    std::vector<float> masked, tmp, smooth, padded;
-    void Reserve(int64_t pixels) {
-      for (auto* v : {&masked, &tmp, &smooth}) v->resize(static_cast<size_t>(pixels));
-    }
-  };
-  thread_local Scratch scratch;
+  // Each thread's scratch rows, kept from call to call: a thread_local named in the parallel
+  // bodies below is the running thread's own. So the weights and their norm, shared by every
+  // thread, are passed to them as pointers.
+  thread_local RowScratch scratch;
   thread_local std::vector<float> weight, norm;
   weight.resize(static_cast<size_t>(pixels));
   norm.resize(static_cast<size_t>(pixels));
   float* const weights = weight.data();
-  const float* const norms = norm.data();
-  // Weights: valid and finite in every plane (a NaN in a "valid" pixel must not spread).
+  float* const norms = norm.data();
+  // Weights: valid and finite in every plane (a NaN in a "valid" pixel must not spread). Plane
+  // by plane, so that the loops vectorize (|v| <= the largest float is isfinite(v), false for
+  // NaN and infinities, in a form GCC vectorizes).
   internal::ParallelBlocks(pixels, [&](int64_t begin, int64_t end) {
+    const uint8_t* valid = moments->valid.empty() ? nullptr : moments->valid.data();
     for (int64_t p = begin; p < end; ++p) {
-      bool usable = moments->valid.empty() || moments->valid[static_cast<size_t>(p)] != 0;
-      for (int j = 0; j <= m && usable; ++j) {
-        usable =
-            std::isfinite(moments->real_plane(j)[p]) && std::isfinite(moments->imag_plane(j)[p]);
+      weights[p] = valid == nullptr || valid[p] != 0 ? 1.0f : 0.0f;
+    }
+    constexpr float kLargest = std::numeric_limits<float>::max();
+    for (int j = 0; j <= m; ++j) {
+      const float* re = moments->real_plane(j);
+      const float* im = moments->imag_plane(j);
+      for (int64_t p = begin; p < end; ++p) {
+        const float real_finite = std::abs(re[p]) <= kLargest ? weights[p] : 0.0f;
+        weights[p] = std::abs(im[p]) <= kLargest ? real_finite : 0.0f;
       }
-      weights[p] = usable ? 1.0f : 0.0f;
     }
   });
-  scratch.Reserve(pixels);
-  HorizontalPass(kernel, width, height, weights, scratch.tmp.data(), scratch.padded);
-  VerticalPass(kernel, width, height, scratch.tmp.data(), norm.data());
+  const auto row_of = [width](auto* plane, int y) {
+    return plane + static_cast<int64_t>(y) * width;
+  };
+  SmoothRows(
+      kernel, width, height, scratch,
+      [&](int y, float* row) { std::copy_n(row_of(weights, y), width, row); },
+      [&](int y, const float* smoothed) { std::copy_n(smoothed, width, row_of(norms, y)); });
   internal::ParallelBlocks(
       static_cast<int64_t>(targets.size()),
       [&](int64_t begin, int64_t end) {
-        Scratch& s = scratch;  // this thread's
-        s.Reserve(pixels);
+        RowScratch& s = scratch;  // this thread's
         for (int64_t t = begin; t < end; ++t) {
           float* plane = targets[static_cast<size_t>(t)];
-          for (int64_t p = 0; p < pixels; ++p) s.masked[p] = weights[p] != 0.0f ? plane[p] : 0.0f;
-          HorizontalPass(kernel, width, height, s.masked.data(), s.tmp.data(), s.padded);
-          VerticalPass(kernel, width, height, s.tmp.data(), s.smooth.data());
-          for (int64_t p = 0; p < pixels; ++p) {
-            if (weights[p] != 0.0f) plane[p] = s.smooth[p] / norms[p];
-          }
+          SmoothRows(
+              kernel, width, height, s,
+              [&](int y, float* row) {
+                const float* w = row_of(weights, y);
+                const float* in = row_of(plane, y);
+#pragma omp simd
+                for (int x = 0; x < width; ++x) {
+                  const float value = in[x];
+                  row[x] = w[x] != 0.0f ? value : 0.0f;
+                }
+              },
+              [&](int y, const float* smoothed) {
+                const float* w = row_of(weights, y);
+                const float* n = row_of(norms, y);
+                // Divided everywhere, then selected (a division under a condition stays scalar).
+                float* out = row_of(plane, y);
+#pragma omp simd
+                for (int x = 0; x < width; ++x) {
+                  const float value = smoothed[x] / n[x], before = out[x];
+                  out[x] = w[x] != 0.0f ? value : before;
+                }
+              });
         }
       },
       1);
