@@ -8,10 +8,14 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "kernels_internal.h"
 #include "transient/reconstruct/percentile.h"
 
 namespace transient {
 namespace {
+
+// Pixels per work item of the demodulation's planes (ParallelBlocks): long runs of each plane.
+constexpr int64_t kDemodulationBlock = 8192;
 
 // Robust scores are medians; a thousand well-spread pixels estimate them to about 4 percent,
 // which is all a threshold of several times the typical score needs, and keep the per-pixel
@@ -374,43 +378,49 @@ absl::Status Demodulator::Demodulate(std::span<const RawFrame> cycle, MomentImag
   const float gain_im = static_cast<float>(inverse_gain_.imag());
   const float gain_abs = static_cast<float>(std::abs(inverse_gain_));
   const ZerothScheme zeroth = schedule_.options().zeroth;
-  for (int j = 0; j <= m; ++j) {
-    if (plane_filled[static_cast<size_t>(j)]) continue;
-    const std::array<int, kMaxPhaseBuckets>& ex = plane_exposures_[static_cast<size_t>(j)];
-    float* re = out->real_plane(j);
-    float* im = out->imag_plane(j);
-    if (j == 0 && zeroth == ZerothScheme::kEstimated) continue;  // plane 0 stays 0
-    if (ex[0] < 0) continue;  // a harmonic the schedule does not measure: stays 0
-    if (j == 0 && zeroth == ZerothScheme::kUnmodulatedPair) {
-      const float* on = average[static_cast<size_t>(ex[0])];
-      const float* off = average[static_cast<size_t>(ex[1])];
-      for (int64_t p = 0; p < pixels; ++p) re[p] = on[p] - off[p];
-      continue;
-    }
-    // Z = (2/N) sum_k M_k exp(i*2*pi*k/N), accumulated bucket by bucket into re, im.
-    std::fill_n(re, pixels, 0.0f);
-    std::fill_n(im, pixels, 0.0f);
-    for (size_t k = 0; k < bucket_cos_.size(); ++k) {
-      const float* a = average[static_cast<size_t>(ex[k])];
-      const float wc = bucket_cos_[k], ws = bucket_sin_[k];
-      for (int64_t p = 0; p < pixels; ++p) {
-        re[p] += wc * a[p];
-        im[p] += ws * a[p];
-      }
-    }
-    if (j == 0) {  // low-frequency proxy: the modulus needs no phase calibration
-      for (int64_t p = 0; p < pixels; ++p) {
-        re[p] = gain_abs * std::sqrt(re[p] * re[p] + im[p] * im[p]);
-        im[p] = 0.0f;
-      }
-      continue;
-    }
-    for (int64_t p = 0; p < pixels; ++p) {
-      const float zr = re[p], zi = im[p];
-      re[p] = zr * gain_re - zi * gain_im;
-      im[p] = zr * gain_im + zi * gain_re;
-    }
-  }
+  // Each pixel's moments depend on that pixel alone: the planes are demodulated over blocks of
+  // pixels on the kernels' threads, each block as the whole image was (the same values).
+  internal::ParallelBlocks(
+      pixels,
+      [&](int64_t begin, int64_t end) {
+        for (int j = 0; j <= m; ++j) {
+          if (plane_filled[static_cast<size_t>(j)]) continue;
+          const std::array<int, kMaxPhaseBuckets>& ex = plane_exposures_[static_cast<size_t>(j)];
+          float* re = out->real_plane(j);
+          float* im = out->imag_plane(j);
+          if (j == 0 && zeroth == ZerothScheme::kEstimated) continue;  // plane 0 stays 0
+          if (ex[0] < 0) continue;  // a harmonic the schedule does not measure: stays 0
+          if (j == 0 && zeroth == ZerothScheme::kUnmodulatedPair) {
+            const float* on = average[static_cast<size_t>(ex[0])];
+            const float* off = average[static_cast<size_t>(ex[1])];
+            for (int64_t p = begin; p < end; ++p) re[p] = on[p] - off[p];
+            continue;
+          }
+          // Z = (2/N) sum_k M_k exp(i*2*pi*k/N), accumulated bucket by bucket into re, im
+          // (zero from the assign above).
+          for (size_t k = 0; k < bucket_cos_.size(); ++k) {
+            const float* a = average[static_cast<size_t>(ex[k])];
+            const float wc = bucket_cos_[k], ws = bucket_sin_[k];
+            for (int64_t p = begin; p < end; ++p) {
+              re[p] += wc * a[p];
+              im[p] += ws * a[p];
+            }
+          }
+          if (j == 0) {  // low-frequency proxy: the modulus needs no phase calibration
+            for (int64_t p = begin; p < end; ++p) {
+              re[p] = gain_abs * std::sqrt(re[p] * re[p] + im[p] * im[p]);
+              im[p] = 0.0f;
+            }
+            continue;
+          }
+          for (int64_t p = begin; p < end; ++p) {
+            const float zr = re[p], zi = im[p];
+            re[p] = zr * gain_re - zi * gain_im;
+            im[p] = zr * gain_im + zi * gain_re;
+          }
+        }
+      },
+      kDemodulationBlock);
 
   int64_t saturated = 0;
   for (int64_t p = 0; p < pixels; ++p) {
