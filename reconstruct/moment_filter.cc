@@ -11,6 +11,7 @@
 #include <cstdint>
 
 #include "absl/strings/str_cat.h"
+#include "separable_passes.h"
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/smoothing.h"
 
@@ -65,99 +66,10 @@ absl::Status CheckOutputSize(ImageGeometry geometry, int channels, std::span<flo
   return absl::OkStatus();
 }
 
-// The largest radius with an unrolled kernel (sigma <= 5.33 px); wider ones take the generic loop.
-constexpr int kMaxUnrolledRadius = 16;
-
-// One row of the horizontal pass: out[x] = sum_{|d| <= r} k[|d|] padded[x + d], where `padded`
-// points at x = 0 of a row with r clamped edge values on each side. With the radius a
-// compile-time constant the sum over d unrolls into registers, one SIMD lane per x.
-template <int kRadius>
-inline void RowPassFixed(const float* __restrict kernel, const float* __restrict padded, int width,
-                         float* __restrict out) {
-#pragma omp simd
-  for (int x = 0; x < width; ++x) {
-    float sum = kernel[0] * padded[x];
-    for (int d = 1; d <= kRadius; ++d) sum += kernel[d] * (padded[x - d] + padded[x + d]);
-    out[x] = sum;
-  }
-}
-
-// One row of the vertical pass: out[x] = sum_{|d| <= r} k[|d|] rows[r + d][x], where rows[] are
-// the 2r + 1 (clamped) source rows around the output row.
-template <int kRadius>
-inline void ColumnPassFixed(const float* __restrict kernel, const float* const* rows, int width,
-                            float* __restrict out) {
-  const float* source[2 * kRadius + 1];
-  for (int i = 0; i <= 2 * kRadius; ++i) source[i] = rows[i];
-#pragma omp simd
-  for (int x = 0; x < width; ++x) {
-    float sum = kernel[0] * source[kRadius][x];
-    for (int d = 1; d <= kRadius; ++d) {
-      sum += kernel[d] * (source[kRadius - d][x] + source[kRadius + d][x]);
-    }
-    out[x] = sum;
-  }
-}
-
-// Any radius: the same sums as shifted rows (d outer, x inner, the row staying in L1), which
-// vectorize without unrolling. Same order of additions as the fixed kernels.
-void RowPassGeneric(const float* __restrict kernel, int radius, const float* __restrict padded,
-                    int width, float* __restrict out) {
-  for (int x = 0; x < width; ++x) out[x] = kernel[0] * padded[x];
-  for (int d = 1; d <= radius; ++d) {
-    const float k = kernel[d];
-    for (int x = 0; x < width; ++x) out[x] += k * (padded[x - d] + padded[x + d]);
-  }
-}
-
-void ColumnPassGeneric(const float* __restrict kernel, int radius, const float* const* rows,
-                       int width, float* __restrict out) {
-  const float* center = rows[radius];
-  for (int x = 0; x < width; ++x) out[x] = kernel[0] * center[x];
-  for (int d = 1; d <= radius; ++d) {
-    const float k = kernel[d];
-    const float* __restrict up = rows[radius - d];
-    const float* __restrict down = rows[radius + d];
-    for (int x = 0; x < width; ++x) out[x] += k * (up[x] + down[x]);
-  }
-}
-
-// The hot loops, compiled for AVX2 and for plain x86-64, chosen at load time (as in
-// optimized_kernels.cc).
-#define TRANSIENT_RADIUS_CASES(CASE)                                                         \
-  CASE(1)                                                                                    \
-  CASE(2) CASE(3) CASE(4) CASE(5) CASE(6) CASE(7) CASE(8) CASE(9) CASE(10) CASE(11) CASE(12) \
-      CASE(13) CASE(14) CASE(15) CASE(16)
-
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void RowPass(const float* kernel,
-                                                                         int radius,
-                                                                         const float* padded,
-                                                                         int width, float* out) {
-  switch (radius) {
-#define TRANSIENT_ROW_CASE(R) \
-  case R:                     \
-    return RowPassFixed<R>(kernel, padded, width, out);
-    TRANSIENT_RADIUS_CASES(TRANSIENT_ROW_CASE)
-#undef TRANSIENT_ROW_CASE
-    default:
-      return RowPassGeneric(kernel, radius, padded, width, out);
-  }
-}
-
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void ColumnPass(
-    const float* kernel, int radius, const float* const* rows, int width, float* out) {
-  switch (radius) {
-#define TRANSIENT_COLUMN_CASE(R) \
-  case R:                        \
-    return ColumnPassFixed<R>(kernel, rows, width, out);
-    TRANSIENT_RADIUS_CASES(TRANSIENT_COLUMN_CASE)
-#undef TRANSIENT_COLUMN_CASE
-    default:
-      return ColumnPassGeneric(kernel, radius, rows, width, out);
-  }
-}
-#undef TRANSIENT_RADIUS_CASES
-static_assert(kMaxUnrolledRadius == 16, "TRANSIENT_RADIUS_CASES lists radii 1..16");
+// The separable passes' rows (RowPass, ColumnPass) are separable_passes.h's, shared with the
+// smoothing of moment images (smoothing.cc).
+using internal::ColumnPass;
+using internal::RowPass;
 
 // Rows [y, y + kRows) of one channel's table: table row y + 1 + i = table row y + i + the prefix
 // sums of image row y + i (thesis §6.2's row pass then column pass, fused so that the table is

@@ -10,23 +10,21 @@
 
 #include "absl/strings/str_cat.h"
 #include "kernels_internal.h"
+#include "separable_passes.h"
 
 namespace transient {
 namespace {
 
-// The separable passes, row by row: out(p) = sum_d k[|d|] in(p + d) along the row, then along
-// the column, with pixels outside the image counting as 0 (their weight is 0 in the
-// denominator too, which is what renormalises the borders). Output row y needs the row-passed
+// The separable passes, row by row (separable_passes.h): out(p) = sum_d k[|d|] in(p + d) along
+// the row, then along the column, with pixels outside the image counting as 0 (their weight is 0
+// in the denominator too, which is what renormalises the borders: zero padding in the row,
+// a row of zeros for the rows beyond the top and bottom). Output row y needs the row-passed
 // input rows y - r .. y + r, which a ring of 2r + 1 rows holds: each input row is read and
-// row-passed once, just before the first output row that needs it, instead of two passes over
-// whole scratch planes (three plane-sized buffers a thread). Input row y + r is read before
-// output row y is written, so
-// `emit` may write over the input in place. The arithmetic of each output value, and its order,
-// is that of the two passes over whole planes that this replaced. The loops over a row are
-// `omp simd`: their buffers never overlap, which GCC could not prove, and a select it would
-// otherwise leave as a branch a pixel.
+// row-passed once, just before the first output row that needs it. Input row y + r is read
+// before output row y is written, so `emit` may write over the input in place.
 struct RowScratch {
-  std::vector<float> padded, ring, out;
+  std::vector<float> padded, ring, zeros, out;
+  std::vector<const float*> sources;
 };
 
 template <typename Fill, typename Emit>
@@ -36,43 +34,26 @@ void SmoothRows(const std::vector<float>& kernel, int width, int height, RowScra
   const int rows = 2 * radius + 1;
   s.padded.assign(static_cast<size_t>(width + 2 * radius), 0.0f);
   s.ring.resize(static_cast<size_t>(rows) * width);
+  s.zeros.assign(static_cast<size_t>(width), 0.0f);
   s.out.resize(static_cast<size_t>(width));
+  s.sources.resize(static_cast<size_t>(rows));
   float* const center = s.padded.data() + radius;
   const auto ring_row = [&](int y) {
     return s.ring.data() + static_cast<int64_t>(y % rows) * width;
   };
   const auto row_pass = [&](int y) {
     fill(y, center);  // width values; the padding stays 0
-    float* dst = ring_row(y);
-#pragma omp simd
-    for (int x = 0; x < width; ++x) dst[x] = kernel[0] * center[x];
-    for (int d = 1; d <= radius; ++d) {
-      const float k = kernel[static_cast<size_t>(d)];
-#pragma omp simd
-      for (int x = 0; x < width; ++x) dst[x] += k * (center[x - d] + center[x + d]);
-    }
+    internal::RowPass(kernel.data(), radius, center, width, ring_row(y));
   };
   for (int y = 0; y < std::min(radius, height); ++y) row_pass(y);
-  float* const dst = s.out.data();
   for (int y = 0; y < height; ++y) {
     if (y + radius < height) row_pass(y + radius);
-    const float* src = ring_row(y);
-#pragma omp simd
-    for (int x = 0; x < width; ++x) dst[x] = kernel[0] * src[x];
-    for (int d = 1; d <= radius; ++d) {
-      const float k = kernel[static_cast<size_t>(d)];
-      if (y - d >= 0) {
-        const float* up = ring_row(y - d);
-#pragma omp simd
-        for (int x = 0; x < width; ++x) dst[x] += k * up[x];
-      }
-      if (y + d < height) {
-        const float* down = ring_row(y + d);
-#pragma omp simd
-        for (int x = 0; x < width; ++x) dst[x] += k * down[x];
-      }
+    for (int d = -radius; d <= radius; ++d) {
+      const bool inside = y + d >= 0 && y + d < height;
+      s.sources[static_cast<size_t>(d + radius)] = inside ? ring_row(y + d) : s.zeros.data();
     }
-    emit(y, static_cast<const float*>(dst));
+    internal::ColumnPass(kernel.data(), radius, s.sources.data(), width, s.out.data());
+    emit(y, static_cast<const float*>(s.out.data()));
   }
 }
 
