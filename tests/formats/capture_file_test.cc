@@ -2,6 +2,8 @@
 // with a message naming the object and the rule.
 #include "transient/formats/capture_file.h"
 
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
 #include <hdf5.h>
 
 #include <cmath>
@@ -9,9 +11,8 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
-
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
+#include <iterator>
+#include <vector>
 
 #include "tests/formats/test_captures.h"
 #include "tests/support/scratch_directory.h"
@@ -153,6 +154,36 @@ TEST(CaptureFile, GroundTruthAndCalibrationRoundTrip) {
   EXPECT_TRUE(SameBits(table.real, calibration.real));
   EXPECT_TRUE(SameBits(table.imag, calibration.imag));
   EXPECT_EQ(table.valid, calibration.valid);
+}
+
+// uint16 pixels are read as stored and widened to float by the reader (not by HDF5): the
+// ends of the range and both sides of 2^15 come back exactly, from every frame read.
+TEST(CaptureReader, Uint16PixelsComeBackExactlyAcrossTheirWholeRange) {
+  ScratchDirectory scratch;
+  const CameraInfo camera = TestCamera();
+  const AcquisitionSchedule schedule = TestSchedule();
+  absl::StatusOr<CaptureWriter> writer = CaptureWriter::Create(
+      scratch.File("c.h5"), camera, schedule, TestOptions(CapturePixelType::kUint16));
+  ASSERT_THAT(writer.status(), IsOk());
+  constexpr float kEdges[] = {0.0f, 1.0f, 32767.0f, 32768.0f, 65534.0f, 65535.0f};
+  std::vector<RawFrame> written;
+  for (int64_t i = 0; i < 3; ++i) {
+    RawFrame frame = TestFrame(camera, schedule, i, true);
+    for (size_t p = 0; p < frame.pixels.size(); ++p) {
+      frame.pixels[p] = kEdges[(p + static_cast<size_t>(i)) % std::size(kEdges)];
+    }
+    ASSERT_THAT(writer->Append(frame), IsOk());
+    written.push_back(frame);
+  }
+  ASSERT_THAT(writer->Close(), IsOk());
+  absl::StatusOr<CaptureReader> reader = CaptureReader::Open(scratch.File("c.h5"));
+  ASSERT_THAT(reader.status(), IsOk());
+  ASSERT_EQ(reader->pixel_type(), CapturePixelType::kUint16);
+  RawFrame frame;
+  for (int64_t i : {2, 0, 1}) {  // out of order: no state carried from the frame read before
+    ASSERT_THAT(reader->Read(i, &frame), IsOk());
+    EXPECT_EQ(frame.pixels, written[static_cast<size_t>(i)].pixels) << "frame " << i;
+  }
 }
 
 TEST(CaptureWriter, RefusesFramesThatDoNotFit) {
