@@ -13,6 +13,7 @@
 
 #include "tests/reconstruct/synthetic_cycles.h"
 #include "tests/support/status_matchers.h"
+#include "transient/reconstruct/kernels.h"
 
 namespace transient {
 namespace {
@@ -126,6 +127,40 @@ TEST(Demodulator, RecoversKnownMomentsForEverySamplingAndZerothScheme) {
           EXPECT_NEAR(out.real_plane(j)[p], scene.c[j][p].real(), kFloatTolerance);
           EXPECT_NEAR(out.imag_plane(j)[p], scene.c[j][p].imag(), kFloatTolerance);
         }
+      }
+    }
+  }
+}
+
+// The planes are demodulated over blocks of pixels on the kernels' threads: an image of several
+// blocks gives the same values bit for bit on one thread and on two, and the scene's moments.
+TEST(Demodulator, SeveralBlocksOfPixelsOnOneOrTwoThreadsGiveTheSameValues) {
+  const KernelOptions saved = GetKernelOptions();
+  const ImageGeometry geometry{163, 120};  // 19,560 pixels: three blocks of the demodulation
+  std::mt19937_64 rng(7);
+  for (ZerothScheme zeroth : {ZerothScheme::kUnmodulatedPair, ZerothScheme::kLowFrequencyProxy,
+                              ZerothScheme::kEstimated}) {
+    SCOPED_TRACE(ZerothSchemeName(zeroth));
+    const AcquisitionSchedule schedule = MakeSchedule(SamplingScheme::kFourBucket, 1, zeroth, 1);
+    const Scene scene = RandomScene(geometry, 3, rng);
+    const std::vector<RawFrame> frames = SynthesizeCycle(schedule, scene, 0, 0.0, rng);
+    MomentImage one_thread, two_threads;
+    SetKernelOptions({.threads = 1});
+    ASSERT_THAT(MakeDemodulator(schedule, geometry).Demodulate(frames, &one_thread, nullptr),
+                IsOk());
+    SetKernelOptions({.threads = 2});
+    ASSERT_THAT(MakeDemodulator(schedule, geometry).Demodulate(frames, &two_threads, nullptr),
+                IsOk());
+    SetKernelOptions(saved);
+    EXPECT_EQ(two_threads.real, one_thread.real);
+    EXPECT_EQ(two_threads.imag, one_thread.imag);
+    EXPECT_EQ(two_threads.valid, one_thread.valid);
+    for (int64_t p = 0; p < geometry.pixel_count(); p += 97) {  // the last block too
+      const double c0_expected = zeroth == ZerothScheme::kEstimated ? 0.0 : scene.c0[p];
+      EXPECT_NEAR(two_threads.real_plane(0)[p], c0_expected, kFloatTolerance);
+      for (int j = 1; j <= 3; ++j) {
+        EXPECT_NEAR(two_threads.real_plane(j)[p], scene.c[j][p].real(), kFloatTolerance);
+        EXPECT_NEAR(two_threads.imag_plane(j)[p], scene.c[j][p].imag(), kFloatTolerance);
       }
     }
   }
