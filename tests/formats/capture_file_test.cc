@@ -156,14 +156,19 @@ TEST(CaptureFile, GroundTruthAndCalibrationRoundTrip) {
   EXPECT_EQ(table.valid, calibration.valid);
 }
 
+// A capture of TestCamera() and TestSchedule() with uint16 pixels.
+absl::StatusOr<CaptureWriter> CreateUint16Capture(const std::string& path) {
+  return CaptureWriter::Create(path, TestCamera(), TestSchedule(),
+                               TestOptions(CapturePixelType::kUint16));
+}
+
 // uint16 pixels are read as stored and widened to float by the reader (not by HDF5): the
 // ends of the range and both sides of 2^15 come back exactly, from every frame read.
 TEST(CaptureReader, Uint16PixelsComeBackExactlyAcrossTheirWholeRange) {
   ScratchDirectory scratch;
   const CameraInfo camera = TestCamera();
   const AcquisitionSchedule schedule = TestSchedule();
-  absl::StatusOr<CaptureWriter> writer = CaptureWriter::Create(
-      scratch.File("c.h5"), camera, schedule, TestOptions(CapturePixelType::kUint16));
+  absl::StatusOr<CaptureWriter> writer = CreateUint16Capture(scratch.File("c.h5"));
   ASSERT_THAT(writer.status(), IsOk());
   constexpr float kEdges[] = {0.0f, 1.0f, 32767.0f, 32768.0f, 65534.0f, 65535.0f};
   std::vector<RawFrame> written;
@@ -190,8 +195,7 @@ TEST(CaptureWriter, RefusesFramesThatDoNotFit) {
   ScratchDirectory scratch;
   const CameraInfo camera = TestCamera();
   const AcquisitionSchedule schedule = TestSchedule();
-  absl::StatusOr<CaptureWriter> writer = CaptureWriter::Create(
-      scratch.File("c.h5"), camera, schedule, TestOptions(CapturePixelType::kUint16));
+  absl::StatusOr<CaptureWriter> writer = CreateUint16Capture(scratch.File("c.h5"));
   ASSERT_THAT(writer.status(), IsOk());
   RawFrame frame = TestFrame(camera, schedule, 0, true);
   frame.pixels[3] = 2.5f;
