@@ -24,6 +24,7 @@ namespace {
 using ::testing::HasSubstr;
 using ::transient::service::testing::Daemon;
 using ::transient::service::testing::FirstDecodedFrame;
+using ::transient::service::testing::kSmallSim;
 using ::transient::service::testing::Request;
 using ::transient::testing::IsOk;
 
@@ -127,7 +128,7 @@ TEST(HarmonicSetDaemon, RefusesTheMomentReconstructionNamingTheMissingHarmonics)
 }
 
 TEST(HarmonicSetDaemon, ConfidenceIsRefusedOnAScheduleWithEveryHarmonic) {
-  Daemon daemon("sim:mirrors?width=32&height=24&pace=fast");
+  Daemon daemon(absl::StrCat(kSmallSim, "&pace=fast"));
   absl::StatusOr<std::map<std::string, std::vector<float>>> images =
       FirstDecodedFrame(daemon, Request({v1::RANGE, v1::CONFIDENCE}));
   EXPECT_EQ(images.status().code(), absl::StatusCode::kFailedPrecondition);
