@@ -32,6 +32,7 @@
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
 #include "transient/wire/address.h"
+#include "transient/wire/frame_memory.h"
 #include "transient/wire/product_registry.h"
 
 #ifndef TRANSIENT_VERSION
@@ -204,6 +205,9 @@ int Run(int argc, char** argv) {
     std::cerr << "transientd: --uncalibrated and --calibration exclude each other\n";
     return 2;
   }
+
+  // Before any thread starts: frames of megabytes, allocated and freed at the camera's rate.
+  if (absl::Status heap = wire::KeepFreedFrameMemory(); !heap.ok()) Log(heap.ToString());
 
   // Signals are taken by sigwait below: every thread started from here on blocks them.
   sigset_t signals;

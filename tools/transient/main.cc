@@ -8,6 +8,7 @@
 
 #include "tools/transient/cli/subcommand.h"
 #include "tools/transient/common/exit_status.h"
+#include "transient/wire/frame_memory.h"
 
 namespace transient::tools::cli {
 
@@ -49,6 +50,11 @@ int main(int argc, char** argv) {
     }
     std::cerr << "error: " << error.what() << " (see transient --help)\n";
     return transient::tools::kExitBadInput;
+  }
+  // The client, the viewer, the web gateway and the worker receive frames of megabytes at the
+  // camera's rate; the file commands allocate images of that size too.
+  if (absl::Status heap = transient::wire::KeepFreedFrameMemory(); !heap.ok()) {
+    std::cerr << "transient: " << heap.ToString() << "\n";
   }
   for (size_t i = 0; i < commands.size(); ++i) {
     if (parsed[i]->parsed()) return commands[i]->Run();

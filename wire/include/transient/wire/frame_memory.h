@@ -1,0 +1,21 @@
+// The heap of a process that sends or receives frames at a camera's rate: a frame's products,
+// their encodings and gRPC's message buffers are megabytes each (5 MB of slices at 163x120,
+// 78 MB at 640x480), allocated and freed every frame.
+#pragma once
+
+#include "absl/status/status.h"
+
+namespace transient::wire {
+
+// Makes glibc keep the memory that a frame frees for the next frame's buffers instead of
+// handing it back to the kernel, which the next frame then faults in page by page. By default
+// glibc unmaps a freed block above its mmap threshold and trims a heap whose free top exceeds
+// its trim threshold, both starting at 128 KiB and rising as large blocks are freed, so what a
+// run keeps depends on the order of its first frees: runs of the same daemon took 264,000 or
+// 18,500 page faults in 8 s (docs/speed.md). This sets the mmap threshold to 32 MiB (glibc's
+// largest) and the trim threshold to 256 MiB. The heap then keeps what the process allocated
+// at its peak, no more. Process-wide: call it once, first thing in main. A no-op under
+// AddressSanitizer, whose allocator is its own. Internal when the C library refuses.
+absl::Status KeepFreedFrameMemory();
+
+}  // namespace transient::wire
