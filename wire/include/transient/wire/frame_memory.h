@@ -11,10 +11,11 @@ namespace transient::wire {
 // handing it back to the kernel, which the next frame then faults in page by page. By default
 // glibc unmaps a freed block above its mmap threshold and trims a heap whose free top exceeds
 // its trim threshold, both starting at 128 KiB and rising as large blocks are freed, so what a
-// run keeps depends on the order of its first frees: runs of the same daemon took 264,000 or
-// 18,500 page faults in 8 s (docs/speed.md). This sets the mmap threshold to 32 MiB (glibc's
-// largest) and the trim threshold to 256 MiB. The heap then keeps what the process allocated
-// at its peak, no more. Process-wide: call it once, first thing in main. A no-op under
+// run keeps depends on the order of its first frees: the latency of runs of the same daemon
+// differed by 2x, and at 163x120 with 64 slices the slow ones took 264,000 page faults in 8 s
+// against 18,500 with this call (docs/speed.md). It sets the mmap threshold to 32 MiB (glibc's
+// largest) and the trim threshold to 256 MiB; the heap keeps at most what the process had
+// allocated at its peak. Process-wide: call it once, first thing in main. A no-op under
 // AddressSanitizer, whose allocator is its own. Internal when the C library refuses.
 absl::Status KeepFreedFrameMemory();
 
