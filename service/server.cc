@@ -350,12 +350,12 @@ class TransientServer::Service final : public v1::Transient::Service {
         continue;
       }
       if (published->publish - last_sent < plan.min_interval) continue;  // max_rate_hz
-      absl::StatusOr<std::optional<v1::Frame>> message =
-          FrameForStream(plan, key, *published, missed_pending);
+      absl::StatusOr<std::unique_ptr<StreamMessage>> message =
+          MessageForStream(plan, key, *published, missed_pending);
       if (!message.ok()) return message.status();
-      if (!message->has_value())
+      if (*message == nullptr)
         continue;  // published before this subscriber's products were computed
-      const v1::Frame& frame = **message;
+      const v1::Frame& frame = (*message)->frame();
       missed_pending = 0;
       if (!writer->Write(frame)) return absl::CancelledError("the client went away");
       last_sent = published->publish;

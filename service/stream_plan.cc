@@ -189,34 +189,61 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& r, const Pipeline
   return plan;
 }
 
-absl::StatusOr<std::optional<v1::Frame>> FrameForStream(const StreamPlan& plan,
-                                                        const std::string& key,
-                                                        const PublishedFrame& published,
-                                                        uint64_t missed) {
-  // Encoded once per plan: the first stream with this plan encodes, the others copy.
+StreamMessage::StreamMessage(v1::Frame fields, std::shared_ptr<const v1::Frame> images)
+    : images_(std::move(images)), frame_(std::move(fields)) {
+  frame_.clear_images();
+  // Lent, not owned: the field holds the shared images' addresses until the destructor takes
+  // them back out. Nothing writes through them (frame() is const).
+  for (const v1::Image& image : images_->images()) {
+    frame_.mutable_images()->AddAllocated(const_cast<v1::Image*>(&image));
+  }
+}
+
+StreamMessage::~StreamMessage() {
+  google::protobuf::RepeatedPtrField<v1::Image>* lent = frame_.mutable_images();
+  while (!lent->empty()) {
+    [[maybe_unused]] v1::Image* shared = lent->ReleaseLast();  // the encoding's, not ours
+  }
+}
+
+absl::StatusOr<std::unique_ptr<StreamMessage>> MessageForStream(const StreamPlan& plan,
+                                                                const std::string& key,
+                                                                const PublishedFrame& published,
+                                                                uint64_t missed) {
+  // Encoded once per plan: the first stream with this plan encodes, the others share it.
   std::shared_ptr<const v1::Frame> images = published.encoded.Find(key);
   if (images == nullptr) {
     auto encoded = std::make_shared<v1::Frame>();
     absl::StatusOr<bool> complete =
         wire::EncodeProducts(plan.images, *published.products, encoded.get());
     if (!complete.ok()) return complete.status();
-    if (!*complete) return std::nullopt;
+    if (!*complete) return nullptr;
     images = published.encoded.Insert(key, std::move(encoded));
   }
-  v1::Frame frame;
-  frame.set_state(ToProto(published.state));
-  *frame.mutable_publish_time() = ToTimestamp(published.publish);
-  *frame.mutable_images() = images->images();
-  frame.set_sequence(published.sequence);
-  frame.set_capture_time_s(published.capture_time_s);
-  frame.set_missed(missed);
-  frame.set_latency_s(absl::ToDoubleSeconds(published.publish - published.arrival));
-  v1::Roi* roi = frame.mutable_roi();
+  v1::Frame fields;
+  fields.set_state(ToProto(published.state));
+  *fields.mutable_publish_time() = ToTimestamp(published.publish);
+  fields.set_sequence(published.sequence);
+  fields.set_capture_time_s(published.capture_time_s);
+  fields.set_missed(missed);
+  fields.set_latency_s(absl::ToDoubleSeconds(published.publish - published.arrival));
+  v1::Roi* roi = fields.mutable_roi();
   roi->set_x(plan.images.rect.x);
   roi->set_y(plan.images.rect.y);
   roi->set_width(plan.images.rect.width);
   roi->set_height(plan.images.rect.height);
-  return frame;
+  return std::make_unique<StreamMessage>(std::move(fields), std::move(images));
+}
+
+absl::StatusOr<std::optional<v1::Frame>> FrameForStream(const StreamPlan& plan,
+                                                        const std::string& key,
+                                                        const PublishedFrame& published,
+                                                        uint64_t missed) {
+  absl::StatusOr<std::unique_ptr<StreamMessage>> message =
+      MessageForStream(plan, key, published, missed);
+  if (!message.ok()) return message.status();
+  if (*message == nullptr) return std::nullopt;
+  return (*message)->frame();  // a copy that owns its images
 }
 
 }  // namespace transient::service

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -42,10 +43,37 @@ absl::StatusOr<StreamPlan> PlanStream(const v1::StreamRequest& request, const Pi
 absl::Status CheckScheduleServes(std::span<const v1::Product> products,
                                  bool moment_depth_of_returns, const ScheduleOptions& schedule);
 
+// A stream's message for one published frame: its own fields (sequence, times, ROI, missed)
+// and the images of the frame's encoding for its plan, which every stream of that plan shares:
+// lent to the message, not copied (5 MB a frame at 163x120 with 64 slices, 78 MB at 640x480,
+// for every subscriber). `frame()` is for reading and serializing only: protobuf's const
+// methods may run on the shared images from several streams at once. The images go back
+// before the message is destroyed, and `images` keeps them alive until then.
+class StreamMessage {
+ public:
+  StreamMessage(v1::Frame fields, std::shared_ptr<const v1::Frame> images);
+  ~StreamMessage();
+  StreamMessage(const StreamMessage&) = delete;
+  StreamMessage& operator=(const StreamMessage&) = delete;
+
+  const v1::Frame& frame() const { return frame_; }
+
+ private:
+  std::shared_ptr<const v1::Frame> images_;
+  v1::Frame frame_;
+};
+
 // The message of a published frame with images (not an announcement) for a stream of `plan`
 // (`key` = wire::EncodingKey(plan.images)): its images encoded once per plan and shared through
-// `published.encoded`, its sequence, times, ROI and `missed`. nullopt when the frame was
+// `published.encoded`, its sequence, times, ROI and `missed`. Null when the frame was
 // published before the plan's products were computed.
+absl::StatusOr<std::unique_ptr<StreamMessage>> MessageForStream(const StreamPlan& plan,
+                                                                const std::string& key,
+                                                                const PublishedFrame& published,
+                                                                uint64_t missed);
+
+// The same message as a v1::Frame of its own, the images copied: for a sender that takes the
+// frame apart (the NATS publisher cuts it into messages). nullopt as MessageForStream's null.
 absl::StatusOr<std::optional<v1::Frame>> FrameForStream(const StreamPlan& plan,
                                                         const std::string& key,
                                                         const PublishedFrame& published,
