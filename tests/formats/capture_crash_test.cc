@@ -174,21 +174,7 @@ TEST(CaptureCrash, CorruptChunkIsDataLossForThatFrameOnly) {
     ScratchDirectory scratch;
     const std::string path = scratch.File("corrupt.h5");
     testing::WriteTestCapture(path, 20, TestOptions(type, 6));
-    haddr_t address = HADDR_UNDEF;
-    hsize_t size = 0;
-    {
-      h5::Id file = h5::File(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
-      h5::Id pixels = h5::Dataset(H5Dopen2(file.get(), "/frames/pixels", H5P_DEFAULT));
-      const hsize_t offset[3] = {7, 0, 0};
-      unsigned mask = 0;
-      ASSERT_GE(H5Dget_chunk_info_by_coord(pixels.get(), offset, &mask, &address, &size), 0);
-    }
-    {
-      std::fstream stream(path, std::ios::in | std::ios::out | std::ios::binary);
-      stream.seekp(static_cast<std::streamoff>(address));
-      const std::string garbage(size, '\xA5');
-      stream.write(garbage.data(), static_cast<std::streamsize>(garbage.size()));
-    }
+    ASSERT_NO_FATAL_FAILURE(testing::CorruptFrameChunk(path, 7, '\xA5'));
     absl::StatusOr<CaptureReader> reader = CaptureReader::Open(path);
     ASSERT_THAT(reader.status(), IsOk());
     ASSERT_EQ(reader->pixel_type(), type);

@@ -1,9 +1,12 @@
 // Known captures for the file and replay tests.
 #include "tests/formats/test_captures.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "transient/formats/h5.h"
 
 namespace transient::testing {
 
@@ -108,6 +111,24 @@ void WriteTestCapture(const std::string& path, int64_t frames, const CaptureWrit
     ASSERT_TRUE(writer->Append(TestFrame(camera, schedule, i, integer, period_s)).ok());
   }
   ASSERT_TRUE(writer->Close().ok());
+}
+
+void CorruptFrameChunk(const std::string& path, int64_t frame, char byte) {
+  haddr_t address = HADDR_UNDEF;
+  hsize_t size = 0;
+  {
+    h5::Id file = h5::File(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
+    h5::Id pixels = h5::Dataset(H5Dopen2(file.get(), "/frames/pixels", H5P_DEFAULT));
+    const hsize_t offset[3] = {static_cast<hsize_t>(frame), 0, 0};
+    unsigned mask = 0;
+    ASSERT_GE(H5Dget_chunk_info_by_coord(pixels.get(), offset, &mask, &address, &size), 0)
+        << path << " frame " << frame;
+  }
+  std::fstream stream(path, std::ios::in | std::ios::out | std::ios::binary);
+  stream.seekp(static_cast<std::streamoff>(address));
+  const std::string garbage(size, byte);
+  stream.write(garbage.data(), static_cast<std::streamsize>(garbage.size()));
+  ASSERT_TRUE(stream.good()) << "writing " << path;
 }
 
 }  // namespace transient::testing

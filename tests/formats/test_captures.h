@@ -32,4 +32,9 @@ CaptureWriterOptions TestOptions(CapturePixelType type = CapturePixelType::kFloa
 void WriteTestCapture(const std::string& path, int64_t frames, const CaptureWriterOptions& options,
                       double period_s = 1e-3);
 
+// Overwrites the stored chunk of frame `frame` in the closed capture `path` with `byte`, as a
+// bad sector would: the file still opens, that frame's read fails (fails the test if the chunk
+// cannot be found; captures store one frame a chunk).
+void CorruptFrameChunk(const std::string& path, int64_t frame, char byte);
+
 }  // namespace transient::testing

@@ -2,16 +2,14 @@
 // unreadable frames and bad URIs.
 #include "transient/drivers/replay_source.h"
 
-#include <cstring>
-#include <fstream>
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include <cstring>
 
 #include "tests/formats/test_captures.h"
 #include "tests/support/scratch_directory.h"
 #include "tests/support/status_matchers.h"
-#include "transient/formats/h5.h"
 
 namespace transient {
 namespace {
@@ -133,19 +131,7 @@ TEST_F(Replay, RealtimePaceWaitsForRecordedTimestamps) {
 TEST_F(Replay, UnreadableFrameIsDataLossAndTheReplayGoesOn) {
   const std::string corrupt = scratch_.File("corrupt.h5");
   WriteTestCapture(corrupt, 5, TestOptions(CapturePixelType::kFloat32, 5));
-  {
-    haddr_t address = HADDR_UNDEF;
-    hsize_t size = 0;
-    h5::Id file = h5::File(H5Fopen(corrupt.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
-    h5::Id pixels = h5::Dataset(H5Dopen2(file.get(), "/frames/pixels", H5P_DEFAULT));
-    const hsize_t offset[3] = {2, 0, 0};
-    unsigned mask = 0;
-    ASSERT_GE(H5Dget_chunk_info_by_coord(pixels.get(), offset, &mask, &address, &size), 0);
-    std::fstream stream(corrupt, std::ios::in | std::ios::out | std::ios::binary);
-    stream.seekp(static_cast<std::streamoff>(address));
-    const std::string garbage(size, '\x5A');
-    stream.write(garbage.data(), static_cast<std::streamsize>(size));
-  }
+  ASSERT_NO_FATAL_FAILURE(testing::CorruptFrameChunk(corrupt, 2, '\x5A'));
   absl::StatusOr<std::unique_ptr<ReplaySource>> source =
       ReplaySource::Open(absl::StrCat("replay:", corrupt, "?pace=fast"));
   ASSERT_THAT(source.status(), IsOk());
