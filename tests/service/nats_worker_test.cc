@@ -143,8 +143,10 @@ TEST(NatsWorker, AFrameHeldByAWorkerThatDiesGoesToAnother) {
   // (connection closed) before acknowledging it, as a worker killed mid-frame.
   uint64_t held = 0;
   {
+    wire::NatsConnectOptions connect;
+    connect.servers = server.url();
     absl::StatusOr<std::unique_ptr<wire::NatsConnection>> doomed =
-        wire::NatsConnection::Open({.servers = server.url()}, /*background=*/false);
+        wire::NatsConnection::Open(connect, /*background=*/false);
     ASSERT_THAT(doomed.status(), IsOk());
     jsSubOptions bind;
     jsSubOptions_Init(&bind);
