@@ -4,17 +4,8 @@
 
 namespace transient::wire {
 
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define TRANSIENT_WIRE_ASAN 1
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__)
-#define TRANSIENT_WIRE_ASAN 1
-#endif
-
 absl::Status KeepFreedFrameMemory() {
-#ifdef TRANSIENT_WIRE_ASAN
+#ifdef TRANSIENT_ADDRESS_SANITIZER
   return absl::OkStatus();
 #else
   constexpr int kMmapThreshold = 32 << 20;  // HEAP_MAX_SIZE / 2 on 64 bits: mallopt's largest

@@ -22,15 +22,7 @@
 #include "transient/v1/transient.grpc.pb.h"
 #include "transient/wire/frame_memory.h"
 
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define TRANSIENT_TEST_ASAN 1
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__)
-#define TRANSIENT_TEST_ASAN 1
-#endif
-#ifdef TRANSIENT_TEST_ASAN
+#ifdef TRANSIENT_ADDRESS_SANITIZER
 #include <sanitizer/allocator_interface.h>
 #endif
 
@@ -41,7 +33,7 @@ using ::transient::service::testing::Daemon;
 using ::transient::service::testing::kSmallSim;
 using ::transient::service::testing::Request;
 
-#ifdef TRANSIENT_TEST_ASAN
+#ifdef TRANSIENT_ADDRESS_SANITIZER
 constexpr char kMemoryMeasure[] = "live heap (AddressSanitizer's count)";
 int64_t MemoryInUse() { return static_cast<int64_t>(__sanitizer_get_current_allocated_bytes()); }
 #else
@@ -143,7 +135,7 @@ TEST(StreamMemory, TwentySubscribersOneNeverReadsTheOthersKeepTheFullRate) {
       << kMemoryMeasure << " grew from " << memory_before << " to " << memory_after << " bytes";
 }
 
-#ifndef TRANSIENT_TEST_ASAN
+#ifndef TRANSIENT_ADDRESS_SANITIZER
 // Minor page faults this thread has taken.
 int64_t MinorFaults() {
   rusage usage{};

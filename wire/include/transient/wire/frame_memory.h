@@ -5,6 +5,16 @@
 
 #include "absl/status/status.h"
 
+// Defined (to 1) where the code is compiled under AddressSanitizer, whose allocator replaces
+// glibc's: the heap's thresholds below do not apply there, and memory is ASan's to count.
+#if defined(__SANITIZE_ADDRESS__)  // GCC
+#define TRANSIENT_ADDRESS_SANITIZER 1
+#elif defined(__has_feature)  // Clang
+#if __has_feature(address_sanitizer)
+#define TRANSIENT_ADDRESS_SANITIZER 1
+#endif
+#endif
+
 namespace transient::wire {
 
 // Makes glibc keep the memory that a frame frees for the next frame's buffers instead of
