@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # make test: every test once under AddressSanitizer + UndefinedBehaviorSanitizer, built with
 # Clang (its thread-safety analysis checks the ABSL_GUARDED_BY annotations; warnings are errors;
-# Debug at -O0 except the code whose tests compute, which is -O1: the top CMakeLists.txt),
-# then the tests that need an optimised build (ctest label `release`: the optimized kernels as
-# users run them, and the daemon's memory bound measured on resident pages) built with GCC in
-# Release. Prints the wall time of each phase and, at the end, all of them together.
+# Debug at -O0 except the code whose tests compute, which is -O1: the top CMakeLists.txt), and
+# the tests that need an optimised build (ctest label `release`: the optimized kernels as users
+# run them, the daemon's memory bound measured on resident pages, the soak run) built with GCC in
+# Release. The GCC build comes first, so that its tests run beside the sanitizer build (below).
+# Prints the wall time of each phase and, at the end, all of them together.
 #   usage: tools/scripts/test.sh [ASAN_DIR] [RELEASE_DIR]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -27,28 +28,54 @@ phase() {
   echo "== make test: $name took ${seconds} s"
 }
 
-# -g1: line tables only, so sanitizer reports keep file:line and the build stays fast.
-# shellcheck disable=SC2086
-phase "configure (Clang, ASan + UBSan)" \
-  cmake -S . -B "$asan_dir" -G Ninja -DCMAKE_C_COMPILER=clang-15 -DCMAKE_CXX_COMPILER=clang++-15 \
-    -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-g1 -DCMAKE_C_FLAGS_DEBUG=-g1 \
-    -DTRANSIENT_BUILD_TESTS=ON -DTRANSIENT_SANITIZE=ON -DTRANSIENT_WERROR=ON $cmake_flags
-phase "build (Clang, ASan + UBSan)" cmake --build "$asan_dir" -j "$jobs"
-# OpenMP threads that wait for work sleep instead of spinning (OMP_WAIT_POLICY=passive): two
-# tests run at a time on two cores, and a test's spinning team took CPU from the other test
-# (docs/tests.md). The release tests keep the default, as users run them.
-phase "all tests (ASan + UBSan)" \
-  env OMP_WAIT_POLICY=passive \
-  ctest --test-dir "$asan_dir" --output-on-failure -j "$jobs" --timeout 600
-
+# The release build comes first, so that its tests run beside the sanitizer build instead of
+# after everything: most of their time is the soak run (service.soak_short: 45 s of a daemon and
+# its subscribers, about 0.4 of a core). The build runs at idle priority (chrt --idle: it takes
+# only what the tests leave, so the soak and the memory test, RUN_SERIAL, still have the cores
+# they need) and in this session (a session of its own would be an autogroup of its own, which
+# the kernel gives an equal share whatever its tasks' policy). docs/tests.md has the figures.
 # shellcheck disable=SC2086
 phase "configure (GCC, Release)" \
   cmake -S . -B "$release_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_TESTS=ON \
     $cmake_flags
 phase "build the release tests (GCC, Release)" \
   cmake --build "$release_dir" -j "$jobs" --target transient_release_tests
-phase "release tests (label release)" \
-  ctest --test-dir "$release_dir" --output-on-failure -j "$jobs" -L release --timeout 600
+
+release_log=$release_dir/release-tests.log
+release_pid=
+stop_release_tests() {
+  if [[ -n $release_pid ]]; then kill -- "-$release_pid" 2>/dev/null || true; fi
+}
+trap stop_release_tests EXIT
+echo "== make test: the release tests (label release) start in the background: $release_log"
+set -m # a process group of their own, so that a phase that fails below stops all of them
+ctest --test-dir "$release_dir" --output-on-failure -j "$jobs" -L release --timeout 600 \
+  </dev/null >"$release_log" 2>&1 &
+release_pid=$!
+set +m
+wait_for_release_tests() {
+  local status=0
+  wait "$release_pid" || status=$?
+  release_pid=
+  cat "$release_log"
+  return "$status"
+}
+
+# -g1: line tables only, so sanitizer reports keep file:line and the build stays fast.
+# shellcheck disable=SC2086
+phase "configure (Clang, ASan + UBSan)" \
+  cmake -S . -B "$asan_dir" -G Ninja -DCMAKE_C_COMPILER=clang-15 -DCMAKE_CXX_COMPILER=clang++-15 \
+    -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-g1 -DCMAKE_C_FLAGS_DEBUG=-g1 \
+    -DTRANSIENT_BUILD_TESTS=ON -DTRANSIENT_SANITIZE=ON -DTRANSIENT_WERROR=ON $cmake_flags
+phase "build (Clang, ASan + UBSan), idle priority" \
+  chrt --idle 0 cmake --build "$asan_dir" -j "$jobs"
+phase "release tests (label release): the rest" wait_for_release_tests
+# OpenMP threads that wait for work sleep instead of spinning (OMP_WAIT_POLICY=passive): two
+# tests run at a time on two cores, and a test's spinning team took CPU from the other test
+# (docs/tests.md). The release tests keep the default, as users run them.
+phase "all tests (ASan + UBSan)" \
+  env OMP_WAIT_POLICY=passive \
+  ctest --test-dir "$asan_dir" --output-on-failure -j "$jobs" --timeout 600
 
 echo "== make test: phases"
 for line in "${phases[@]}"; do echo "   $line"; done
