@@ -23,8 +23,9 @@ build: deps
 install: build
 	cmake --install $(BUILD_DIR) --prefix $(PREFIX)
 
-# All tests: the whole suite once under ASan + UBSan (Clang, thread-safety analysis, warnings as
-# errors), then the tests that need an optimised build in GCC Release; prints each phase's time.
+# All tests: those that need an optimised build in GCC Release (in the background while the next
+# build runs) and the whole suite once under ASan + UBSan (Clang, thread-safety analysis,
+# warnings as errors); prints each phase's time.
 test: deps
 	JOBS=$(JOBS) CMAKE_FLAGS="$(CMAKE_FLAGS)" bash tools/scripts/test.sh $(ASAN_DIR) $(BUILD_DIR)
 
