@@ -1,9 +1,12 @@
 // Levinson's algorithm (thesis alg. 8.1) and its inverse (thesis alg. B.3).
 #include "transient/reconstruct/levinson.h"
 
+#include <algorithm>
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <limits>
+#include <utility>
 
 namespace transient {
 
@@ -51,6 +54,89 @@ bool Levinson(std::span<const Complex> c, std::span<Complex> q) {
 
 LevinsonOutcome ShiftedLevinson(std::span<const Complex> c, double shift, std::span<Complex> q) {
   return LevinsonSteps(c, c[0].real() - shift, /*indefinite_last=*/true, q);
+}
+
+bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min_out, std::span<Complex> q_out,
+                       ToeplitzStart start) {
+  assert(c.size() == q_out.size() && !c.empty() && c.size() <= kMaxMoments);
+  const int size = static_cast<int>(c.size());
+  const double c0 = c[0].real();
+  if (!(c0 > 0.0) || !std::isfinite(c0)) return false;
+  std::array<Complex, kMaxMoments> q_storage, trial_storage;
+  std::span<Complex> q(q_storage.data(), size), trial(trial_storage.data(), size);
+  double below = -std::numeric_limits<double>::infinity();  // C - below I positive definite
+  double above = c0;  // lambda_min <= e_0^* C e_0 = c_0; lowered to each iterate past it
+  double lambda = 0.0;
+  LevinsonOutcome outcome = ShiftedLevinson(c, lambda, q);
+  if (outcome == LevinsonOutcome::kFailed) {
+    // Beyond a leading minor's lambda_min. Gershgorin's bound on lambda_min is a start from
+    // below, but a far one, from which Newton's first step overshoots past that minor's
+    // lambda_min (a pole of f) and the bracket is bisected. kSearchBelowZero first tries
+    // shifts below 0 growing fourfold from c_0 / 64: the first that the recursion passes
+    // (positive definite, or past lambda_min only in its last step) starts Newton's steps.
+    double off_diagonal = 0.0;
+    for (int j = 1; j < size; ++j) off_diagonal += 2.0 * std::abs(c[j]);
+    const double gershgorin = c0 - off_diagonal - 1e-9 * c0;
+    above = lambda;
+    if (start == ToeplitzStart::kSearchBelowZero) {
+      for (double shift = -c0 / 64.0; shift > gershgorin; shift *= 4.0) {
+        outcome = ShiftedLevinson(c, shift, q);
+        if (outcome != LevinsonOutcome::kFailed) {
+          lambda = shift;
+          break;
+        }
+        above = shift;  // a leading minor's lambda_min, so lambda_min too, is below it
+      }
+    }
+    if (outcome == LevinsonOutcome::kFailed) {
+      lambda = gershgorin;
+      outcome = ShiftedLevinson(c, lambda, q);
+      if (outcome != LevinsonOutcome::kPositiveDefinite) return false;
+    }
+  }
+  // Newton's step estimates the distance left to lambda_min; rounding in Levinson's recursion
+  // near a singular matrix keeps it from falling much below ~eps c_0, so stop at this, after
+  // which the step itself is added (quadratic convergence: its own error is far smaller).
+  const double tolerance = kToeplitzLambdaTolerance * c0;
+  double lambda_min = std::numeric_limits<double>::quiet_NaN();
+  for (int step = 0; step < kToeplitzLambdaMaxSteps; ++step) {
+    if (outcome == LevinsonOutcome::kPositiveDefinite) {
+      below = std::max(below, lambda);
+    } else {
+      above = std::min(above, lambda);
+    }
+    double norm = 0.0;
+    for (int j = 0; j < size; ++j) norm += std::norm(q[j]);
+    const double newton = q[0].real() / norm;
+    if (std::abs(newton) <= tolerance) {
+      lambda_min = lambda + newton;
+      break;
+    }
+    double next = lambda + newton;
+    if (!(next > below && next < above)) {
+      if (!(above - below > tolerance)) {
+        lambda_min = 0.5 * (below + above);
+        break;
+      }
+      next = std::isfinite(below) ? 0.5 * (below + above) : above - 2.0 * (above - lambda);
+    }
+    const LevinsonOutcome next_outcome = ShiftedLevinson(c, next, trial);
+    if (next_outcome == LevinsonOutcome::kFailed) {
+      if (next < lambda) {  // from above, within (lambda_min, lambda): singular to rounding
+        lambda_min = next;
+        break;
+      }
+      above = next;  // past the leading minor's lambda_min: stay at lambda, bisect
+      continue;
+    }
+    lambda = next;
+    outcome = next_outcome;
+    std::swap(q, trial);
+  }
+  if (!std::isfinite(lambda_min)) return false;
+  std::copy(q.begin(), q.end(), q_out.begin());
+  *lambda_min_out = lambda_min;
+  return true;
 }
 
 void InverseLevinson(std::span<const Complex> q, std::span<Complex> c) {

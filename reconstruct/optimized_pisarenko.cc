@@ -52,13 +52,13 @@
 namespace transient {
 namespace {
 
-constexpr int kMaxLambdaSteps = 64;  // Newton converges in ~5; bisection halves at worst
+constexpr int kMaxLambdaSteps = kToeplitzLambdaMaxSteps;  // as ToeplitzLambdaMin's (the lanes')
 constexpr int kMaxRootSteps = 30;
 constexpr double kRootTolerance = 1e-13;  // |Newton step| on P
 // A root of the eigenvector's polynomial this far from the unit circle means lambda_min was
 // not found (the reference drops such roots as spurious; here the pixel goes to it).
 constexpr double kUnitCircleTolerance = 1e-6;
-constexpr double kLambdaTolerance = 1e-12;  // relative to c_0
+constexpr double kLambdaTolerance = kToeplitzLambdaTolerance;  // relative to c_0
 // |q_m| = |q_0| for the eigenvector of a simple lambda_min (persymmetry); a larger difference
 // means a degenerate lambda_min or no convergence.
 constexpr double kPersymmetryTolerance = 1e-6;
@@ -181,63 +181,12 @@ bool PisarenkoByLevinson(std::span<const Complex> c, const PisarenkoSearchGrid& 
   const double c0 = c[0].real();
   if (!(c0 > 0.0) || !std::isfinite(c0)) return false;
 
-  // 1. lambda_min (header comment): Newton's steps on f = 1 / q_0 within the bracket
-  // [below, above], bisection where a step would leave it.
-  std::array<Complex, kMaxMoments> q_storage, trial_storage;
-  std::span<Complex> q(q_storage.data(), size), trial(trial_storage.data(), size);
-  double below = -std::numeric_limits<double>::infinity();  // C - below I positive definite
-  double above = c0;  // lambda_min <= e_0^* C e_0 = c_0; lowered to each iterate past it
-  double lambda = 0.0;
-  LevinsonOutcome outcome = ShiftedLevinson(c, lambda, q);
-  if (outcome == LevinsonOutcome::kFailed) {
-    // Beyond the leading minor's lambda_min: start from Gershgorin's bound on lambda_min.
-    double off_diagonal = 0.0;
-    for (int j = 1; j < size; ++j) off_diagonal += 2.0 * std::abs(c[j]);
-    above = lambda;
-    lambda = c0 - off_diagonal - 1e-9 * c0;
-    outcome = ShiftedLevinson(c, lambda, q);
-    if (outcome != LevinsonOutcome::kPositiveDefinite) return false;
-  }
-  // Newton's step estimates the distance left to lambda_min; rounding in Levinson's recursion
-  // near a singular matrix keeps it from falling much below ~eps c_0, so stop at this, after
-  // which the step itself is added (quadratic convergence: its own error is far smaller).
-  const double tolerance = kLambdaTolerance * c0;
-  double lambda_min = std::numeric_limits<double>::quiet_NaN();
-  for (int step = 0; step < kMaxLambdaSteps; ++step) {
-    if (outcome == LevinsonOutcome::kPositiveDefinite) {
-      below = std::max(below, lambda);
-    } else {
-      above = std::min(above, lambda);
-    }
-    double norm = 0.0;
-    for (int j = 0; j < size; ++j) norm += std::norm(q[j]);
-    const double newton = q[0].real() / norm;
-    if (std::abs(newton) <= tolerance) {
-      lambda_min = lambda + newton;
-      break;
-    }
-    double next = lambda + newton;
-    if (!(next > below && next < above)) {
-      if (!(above - below > tolerance)) {
-        lambda_min = 0.5 * (below + above);
-        break;
-      }
-      next = std::isfinite(below) ? 0.5 * (below + above) : above - 2.0 * (above - lambda);
-    }
-    const LevinsonOutcome next_outcome = ShiftedLevinson(c, next, trial);
-    if (next_outcome == LevinsonOutcome::kFailed) {
-      if (next < lambda) {  // from above, within (lambda_min, lambda): singular to rounding
-        lambda_min = next;
-        break;
-      }
-      above = next;  // past the leading minor's lambda_min: stay at lambda, bisect
-      continue;
-    }
-    lambda = next;
-    outcome = next_outcome;
-    std::swap(q, trial);
-  }
-  if (!std::isfinite(lambda_min)) return false;
+  // 1. lambda_min (header comment): Newton's steps on f = 1 / q_0 within the bracket of
+  // iterates known below and above it (ToeplitzLambdaMin, levinson.cc).
+  std::array<Complex, kMaxMoments> q_storage;
+  const std::span<Complex> q(q_storage.data(), size);
+  double lambda_min = 0.0;
+  if (!ToeplitzLambdaMin(c, &lambda_min, q)) return false;
 
   // 2. The roots on the unit circle. Normalised by q_0 so that the eigenvector is O(1).
   // q_0 is real (Levinson); |q_m| / |q_0| compared squared (q is O(1/distance), no overflow).

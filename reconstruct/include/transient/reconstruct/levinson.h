@@ -24,6 +24,25 @@ enum class LevinsonOutcome { kPositiveDefinite, kLastStepIndefinite, kFailed };
 [[nodiscard]] LevinsonOutcome ShiftedLevinson(std::span<const Complex> c, double shift,
                                               std::span<Complex> q);
 
+// lambda_min of C(c) by Newton's method on ShiftedLevinson (Cybenko and Van Loan 1986; the
+// derivation is in optimized_pisarenko.cc): each step's outcome says on which side of lambda_min
+// its iterate is, and a step that would leave the bracket known so far bisects it instead. Stops
+// once Newton's step is below kToeplitzLambdaTolerance c_0 (after adding it: the convergence is
+// quadratic), within kToeplitzLambdaMaxSteps recursions. The steps start at 0, or where the
+// recursion fails there at Gershgorin's bound (kGershgorin, the Pisarenko kernels' start) or at
+// the first of -c_0/64, -c_0/16, ... that it passes (kSearchBelowZero, biasing's: fewer steps
+// for moments just past the moment set). Returns false where it cannot vouch for the result:
+// c_0 <= 0 or not finite, no positive-definite start, or no convergence; a dense eigen-solve
+// must then decide. On success q = (C(c) - lambda I)^{-1}
+// e_0 at the last iterate lambda, which points along lambda_min's eigenvector. q and c have the
+// same size m+1.
+inline constexpr double kToeplitzLambdaTolerance = 1e-12;  // relative to c_0
+inline constexpr int kToeplitzLambdaMaxSteps = 64;  // Newton converges in ~5; bisection halves
+enum class ToeplitzStart { kGershgorin, kSearchBelowZero };
+[[nodiscard]] bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min,
+                                     std::span<Complex> q,
+                                     ToeplitzStart start = ToeplitzStart::kGershgorin);
+
 // The inverse map: c from q = C^{-1}(c) e_0 (thesis alg. B.3, Landau 1987). Requires that q
 // came from a positive-definite C(c), i.e. that its polynomial has no root in the closed unit
 // disc (thesis lemma B.9); asserted in debug builds via q_0 > 0.
