@@ -104,8 +104,8 @@ void PrepareSolved(const MomentImage& moments, SolvedImage* solved);
 PisarenkoImage AllocatePisarenko(const SolvedImage& solved);
 
 // Validation, zeroth moment, biasing and Levinson. With `quick_bias_check`, a pixel whose C(c)
-// passes Levinson's positive-definiteness test at c_0 (1 - eps) skips the dense eigen-solve:
-// then lambda_min > eps c_0 already and biasing would change nothing.
+// passes Levinson's positive-definiteness test at c_0 (1 - eps) skips biasing's search for
+// lambda_min: then lambda_min > eps c_0 already and biasing would change nothing.
 void SolvePixels(const MomentImage& moments, const SolveOptions& options, bool quick_bias_check,
                  int64_t begin, int64_t end, SolvedImage* solved);
 // With a `grid`, each pixel tries PisarenkoByLevinson first and takes Pisarenko() where that

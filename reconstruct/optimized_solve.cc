@@ -7,7 +7,8 @@
 //   reference, built for baseline x86-64, never uses either;
 // - Levinson's positive-definiteness test at c_0 (1 - eps) proves lambda_min > eps c_0 for
 //   most pixels, which then need no biasing; the others (and every pixel when c_0 is
-//   estimated) take the reference's per-pixel path, which runs the dense eigen-solve.
+//   estimated) take the reference's per-pixel path, which finds lambda_min for biasing
+//   (biasing.cc: Newton's steps on Levinson's recursion, or a dense eigen-solve).
 #include <cassert>
 #include <cstdint>
 #include <cstring>

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <vector>
 
@@ -77,6 +78,34 @@ TEST(Biasing, EstimatedZerothMomentPutsLambdaMinAtTheBound) {
 TEST(Biasing, NothingToEstimateFromGivesZero) {
   const std::vector<Complex> c = {0.0, 0.0, 0.0};
   EXPECT_EQ(EstimateZerothMoment(c, kEpsilon), 0.0);
+}
+
+// SmallestEigenvalueZeroDiagonal takes Newton's steps on Levinson's recursion where c_0 > 0
+// (ToeplitzLambdaMin) instead of the dense eigen-solve, which SmallestEigenvalue still runs:
+// the two agree on moments inside, on and past the boundary of the moment set, for every order.
+TEST(Biasing, ZeroDiagonalLambdaMinAgreesWithTheDenseEigenSolve) {
+  std::mt19937_64 rng(12);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  int indefinite = 0, trials = 0;
+  for (int m = 1; m <= kMaxOrder; ++m) {
+    for (int trial = 0; trial < 40; ++trial) {
+      const double uniform = (trial % 4 == 0) ? 0.3 : 0.0;
+      const auto measure = testing::RandomSparseMeasure(m, 0.1, uniform, rng);
+      std::vector<Complex> c = measure.Moments(m);
+      const double sigma = (trial % 4 == 1) ? 0.0 : 0.01 * (1 + trial % 5);
+      for (int j = 1; j <= m; ++j) c[j] += sigma * c[0].real() * Complex(noise(rng), noise(rng));
+      const double c0 = c[0].real();
+      const double dense = std::min(0.0, SmallestEigenvalue(c) - c0);
+      EXPECT_NEAR(SmallestEigenvalueZeroDiagonal(c), dense, 1e-11 * c0)
+          << "m = " << m << ", trial " << trial;
+      indefinite += SmallestEigenvalue(c) < 0.0;
+      ++trials;
+    }
+  }
+  EXPECT_GT(indefinite, trials / 4) << "the trials should reach past the moment set";
+  // C(c) = c_0 I: lambda_min = c_0 with multiplicity m + 1 (bisection, not Newton, finds it).
+  EXPECT_NEAR(SmallestEigenvalueZeroDiagonal(std::vector<Complex>{2.0, 0.0, 0.0, 0.0}), 0.0,
+              1e-11 * 2.0);
 }
 
 TEST(Biasing, SmallestEigenvalueOfKnownMatrix) {
