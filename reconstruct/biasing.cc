@@ -28,11 +28,13 @@ double SmallestEigenvalueZeroDiagonal(std::span<const Complex> c) {
   // calibrated 640x480 frame of the mirrors scene is biased; a sparse scene's moments lie on
   // the boundary of the moment set, and noise takes them past it). Newton's steps on
   // Levinson's recursion take a few O(m^2) recursions where the dense eigen-solve below took
-  // most of the daemon's time (docs/speed.md).
+  // most of the daemon's time (docs/speed.md). That solve stays for what they cannot vouch
+  // for, and where their q is not a simple lambda_min's eigenvector (levinson.h).
   std::array<Complex, kMaxMoments> q;
   double lambda_min = 0.0;
-  if (c[0].real() > 0.0 && ToeplitzLambdaMin(c, &lambda_min, std::span(q.data(), c.size()),
-                                             ToeplitzStart::kSearchBelowZero)) {
+  const std::span<Complex> q_span(q.data(), c.size());
+  if (ToeplitzLambdaMin(c, &lambda_min, q_span, ToeplitzStart::kSearchBelowZero) &&
+      LooksLikeLambdaMinEigenvector(q_span)) {
     return std::min(0.0, lambda_min - c[0].real());
   }
   ToeplitzMatrix t = MakeToeplitz(c);

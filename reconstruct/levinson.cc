@@ -79,7 +79,8 @@ bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min_out, std::
     const double gershgorin = c0 - off_diagonal - 1e-9 * c0;
     above = lambda;
     if (start == ToeplitzStart::kSearchBelowZero) {
-      for (double shift = -c0 / 64.0; shift > gershgorin; shift *= 4.0) {
+      // shift < 0: for a subnormal c_0, -c_0 / 64 rounds to -0, which growing would not move.
+      for (double shift = -c0 / 64.0; shift < 0.0 && shift > gershgorin; shift *= 4.0) {
         outcome = ShiftedLevinson(c, shift, q);
         if (outcome != LevinsonOutcome::kFailed) {
           lambda = shift;

@@ -52,16 +52,11 @@
 namespace transient {
 namespace {
 
-constexpr int kMaxLambdaSteps = kToeplitzLambdaMaxSteps;  // as ToeplitzLambdaMin's (the lanes')
 constexpr int kMaxRootSteps = 30;
 constexpr double kRootTolerance = 1e-13;  // |Newton step| on P
 // A root of the eigenvector's polynomial this far from the unit circle means lambda_min was
 // not found (the reference drops such roots as spurious; here the pixel goes to it).
 constexpr double kUnitCircleTolerance = 1e-6;
-constexpr double kLambdaTolerance = kToeplitzLambdaTolerance;  // relative to c_0
-// |q_m| = |q_0| for the eigenvector of a simple lambda_min (persymmetry); a larger difference
-// means a degenerate lambda_min or no convergence.
-constexpr double kPersymmetryTolerance = 1e-6;
 // Smallest Cholesky pivot, relative to the largest diagonal entry, accepted from a normal
 // matrix: below it the system is too ill-conditioned for the normal equations' squared
 // condition number, and the reference's pivoted QR takes the pixel.
@@ -190,8 +185,8 @@ bool PisarenkoByLevinson(std::span<const Complex> c, const PisarenkoSearchGrid& 
 
   // 2. The roots on the unit circle. Normalised by q_0 so that the eigenvector is O(1).
   // q_0 is real (Levinson); |q_m| / |q_0| compared squared (q is O(1/distance), no overflow).
+  if (!LooksLikeLambdaMinEigenvector(q)) return false;
   const double q0 = std::abs(q[0].real());
-  if (!(std::abs(std::norm(q[m]) / (q0 * q0) - 1.0) < 2.0 * kPersymmetryTolerance)) return false;
   const Complex rotation = std::sqrt(q[m] / std::conj(q[0]));  // e^{i theta / 2}
   // P(x) = sum_j p_j x^j, p_j = conj(q_j) / |q_0|; R(phi) = Re e^{i theta/2} P(e^{i phi})
   // e^{-i m phi/2}.

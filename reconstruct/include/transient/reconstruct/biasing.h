@@ -18,7 +18,8 @@ double SmallestEigenvalue(std::span<const Complex> c);
 // Smallest eigenvalue of C(c) with its main diagonal set to zero; it is <= 0 because the
 // matrix has zero trace, and 0 only when c_1 = ... = c_m = 0. Where c_0 > 0, it is
 // lambda_min(C(c)) - c_0 by Newton's steps on Levinson's recursion (ToeplitzLambdaMin, to
-// ~1e-12 c_0), unless those cannot vouch for it; else, and where c_0 <= 0, a dense eigen-solve.
+// ~1e-12 c_0), unless those cannot vouch for it or end at a q that is not a simple lambda_min's
+// eigenvector; else, and where c_0 <= 0, a dense eigen-solve.
 double SmallestEigenvalueZeroDiagonal(std::span<const Complex> c);
 
 // Estimate of an unmeasured c_0 such that lambda_min(C(c)) = epsilon * c_0:

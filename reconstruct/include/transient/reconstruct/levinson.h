@@ -1,6 +1,8 @@
 // Levinson's algorithm for q = C^{-1}(c) e_0 (thesis alg. 8.1) and its inverse (thesis alg. B.3).
 #pragma once
 
+#include <cmath>
+#include <complex>
 #include <span>
 
 #include "transient/reconstruct/moments.h"
@@ -14,7 +16,7 @@ namespace transient {
 [[nodiscard]] bool Levinson(std::span<const Complex> c, std::span<Complex> q);
 
 // Levinson's recursion for C(c) - shift I, also just past lambda_min (Newton's method on it
-// finds lambda_min: optimized_pisarenko.cc):
+// finds lambda_min: ToeplitzLambdaMin below):
 // - kPositiveDefinite: C(c) - shift I is positive definite, and q = (C(c) - shift I)^{-1} e_0
 //   with q_0 > 0;
 // - kLastStepIndefinite: its leading m x m minor is positive definite and C(c) - shift I is
@@ -25,23 +27,35 @@ enum class LevinsonOutcome { kPositiveDefinite, kLastStepIndefinite, kFailed };
                                               std::span<Complex> q);
 
 // lambda_min of C(c) by Newton's method on ShiftedLevinson (Cybenko and Van Loan 1986; the
-// derivation is in optimized_pisarenko.cc): each step's outcome says on which side of lambda_min
-// its iterate is, and a step that would leave the bracket known so far bisects it instead. Stops
-// once Newton's step is below kToeplitzLambdaTolerance c_0 (after adding it: the convergence is
-// quadratic), within kToeplitzLambdaMaxSteps recursions. The steps start at 0, or where the
-// recursion fails there at Gershgorin's bound (kGershgorin, the Pisarenko kernels' start) or at
-// the first of -c_0/64, -c_0/16, ... that it passes (kSearchBelowZero, biasing's: fewer steps
+// derivation is in optimized_pisarenko.cc's header): each step's outcome says on which side of
+// lambda_min its iterate is, and a step that would leave the bracket known so far bisects it
+// instead. Stops once Newton's step is below kToeplitzLambdaTolerance c_0 (after adding it: the
+// convergence is quadratic), within kToeplitzLambdaMaxSteps recursions. The steps start at 0, or
+// where the recursion fails there at Gershgorin's bound (kGershgorin, the Pisarenko kernels' start)
+// or at the first of -c_0/64, -c_0/16, ... that it passes (kSearchBelowZero, biasing's: fewer steps
 // for moments just past the moment set). Returns false where it cannot vouch for the result:
-// c_0 <= 0 or not finite, no positive-definite start, or no convergence; a dense eigen-solve
-// must then decide. On success q = (C(c) - lambda I)^{-1}
-// e_0 at the last iterate lambda, which points along lambda_min's eigenvector. q and c have the
-// same size m+1.
+// c_0 <= 0 or not finite, no start that the recursion passes (positive definite, or past
+// lambda_min only in its last step), or no convergence; a dense eigen-solve must then decide.
+// Like any Newton iteration on 1/q_0, it can settle, rarely, just past a leading minor's
+// lambda_min, where q_0 also vanishes: LooksLikeLambdaMinEigenvector(q) tells those apart. On
+// success q = (C(c) - lambda I)^{-1} e_0 at the last iterate lambda, which points along
+// lambda_min's eigenvector. q and c have the same size m+1.
 inline constexpr double kToeplitzLambdaTolerance = 1e-12;  // relative to c_0
 inline constexpr int kToeplitzLambdaMaxSteps = 64;  // Newton converges in ~5; bisection halves
 enum class ToeplitzStart { kGershgorin, kSearchBelowZero };
 [[nodiscard]] bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min,
                                      std::span<Complex> q,
                                      ToeplitzStart start = ToeplitzStart::kGershgorin);
+
+// Whether q, from ToeplitzLambdaMin, points along the eigenvector of a simple lambda_min: that
+// eigenvector of a Hermitian Toeplitz matrix is conjugate-persymmetric, so |q_m| = |q_0| (to
+// kToeplitzPersymmetryTolerance, relative). Not so at a degenerate lambda_min, or where the
+// steps settled at a leading minor's lambda_min instead.
+inline constexpr double kToeplitzPersymmetryTolerance = 1e-6;
+[[nodiscard]] inline bool LooksLikeLambdaMinEigenvector(std::span<const Complex> q) {
+  const double q0 = std::abs(q[0].real());
+  return std::abs(std::norm(q.back()) / (q0 * q0) - 1.0) < 2.0 * kToeplitzPersymmetryTolerance;
+}
 
 // The inverse map: c from q = C^{-1}(c) e_0 (thesis alg. B.3, Landau 1987). Requires that q
 // came from a positive-definite C(c), i.e. that its polynomial has no root in the closed unit
