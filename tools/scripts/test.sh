@@ -44,7 +44,10 @@ phase "build the release tests (GCC, Release)" \
 release_log=$release_dir/release-tests.log
 release_pid=
 stop_release_tests() {
-  if [[ -n $release_pid ]]; then kill -- "-$release_pid" 2>/dev/null || true; fi
+  if [[ -n $release_pid ]]; then
+    kill -- "-$release_pid" 2>/dev/null || true
+    echo "== make test: stopped the release tests; what they printed until then: $release_log"
+  fi
 }
 trap stop_release_tests EXIT
 echo "== make test: the release tests (label release) start in the background: $release_log"
