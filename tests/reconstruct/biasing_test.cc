@@ -85,15 +85,11 @@ TEST(Biasing, NothingToEstimateFromGivesZero) {
 // the two agree on moments inside, on and past the boundary of the moment set, for every order.
 TEST(Biasing, ZeroDiagonalLambdaMinAgreesWithTheDenseEigenSolve) {
   std::mt19937_64 rng(12);
-  std::normal_distribution<double> noise(0.0, 1.0);
   int indefinite = 0, trials = 0;
   for (int m = 1; m <= kMaxOrder; ++m) {
     for (int trial = 0; trial < 40; ++trial) {
-      const double uniform = (trial % 4 == 0) ? 0.3 : 0.0;
-      const auto measure = testing::RandomSparseMeasure(m, 0.1, uniform, rng);
-      std::vector<Complex> c = measure.Moments(m);
-      const double sigma = (trial % 4 == 1) ? 0.0 : 0.01 * (1 + trial % 5);
-      for (int j = 1; j <= m; ++j) c[j] += sigma * c[0].real() * Complex(noise(rng), noise(rng));
+      double sigma = 0.0;
+      const std::vector<Complex> c = testing::MomentSetTrial(m, m, trial, rng, &sigma);
       const double c0 = c[0].real();
       const double dense = std::min(0.0, SmallestEigenvalue(c) - c0);
       EXPECT_NEAR(SmallestEigenvalueZeroDiagonal(c), dense, 1e-11 * c0)

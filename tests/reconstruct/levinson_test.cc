@@ -94,16 +94,12 @@ TEST(Levinson, UniformMeasureGivesAConstantPolynomial) {
 // (without noise, fewer returns than m make lambda_min = 0 a repeated eigenvalue: declined).
 TEST(ToeplitzLambdaMin, AgreesWithTheDenseEigenSolveFromBothStarts) {
   std::mt19937_64 rng(21);
-  std::normal_distribution<double> noise(0.0, 1.0);
   int trials = 0, noisy_trials = 0, failed_at_zero = 0;
   std::array<int, 2> vouched = {0, 0}, vouched_noisy = {0, 0};
   for (int m = 1; m <= kMaxOrder; ++m) {
     for (int trial = 0; trial < 40; ++trial) {
-      const double uniform = (trial % 4 == 0) ? 0.3 : 0.0;
-      const auto measure = testing::RandomSparseMeasure(1 + trial % m, 0.1, uniform, rng);
-      std::vector<Complex> c = measure.Moments(m);
-      const double sigma = (trial % 4 == 1) ? 0.0 : 0.01 * (1 + trial % 5);
-      for (int j = 1; j <= m; ++j) c[j] += sigma * c[0].real() * Complex(noise(rng), noise(rng));
+      double sigma = 0.0;
+      const std::vector<Complex> c = testing::MomentSetTrial(m, 1 + trial % m, trial, rng, &sigma);
       const double dense = SmallestEigenvalue(c);
       std::vector<Complex> q(m + 1);
       failed_at_zero += ShiftedLevinson(c, 0.0, q) == LevinsonOutcome::kFailed;

@@ -20,6 +20,16 @@ double SparseMeasure::PoissonSmoothed(double r, double phi) const {
   return sum;
 }
 
+std::vector<Complex> MomentSetTrial(int m, int count, int trial, std::mt19937_64& rng,
+                                    double* sigma) {
+  const double uniform = (trial % 4 == 0) ? 0.3 : 0.0;
+  std::vector<Complex> c = RandomSparseMeasure(count, 0.1, uniform, rng).Moments(m);
+  *sigma = (trial % 4 == 1) ? 0.0 : 0.01 * (1 + trial % 5);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (int j = 1; j <= m; ++j) c[j] += *sigma * c[0].real() * Complex(noise(rng), noise(rng));
+  return c;
+}
+
 SparseMeasure RandomSparseMeasure(int count, double min_separation, double uniform,
                                   std::mt19937_64& rng) {
   std::uniform_real_distribution<double> phase_dist(0.0, kTwoPi);
