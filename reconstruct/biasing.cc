@@ -1,7 +1,6 @@
 // Zeroth moment estimation and biasing (thesis §8.3.3).
 #include "transient/reconstruct/biasing.h"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cassert>
@@ -18,9 +17,7 @@ constexpr double kBoundSlack = 1e-10;
 }  // namespace
 
 double SmallestEigenvalue(std::span<const Complex> c) {
-  const ToeplitzMatrix t = MakeToeplitz(c);
-  Eigen::SelfAdjointEigenSolver<ToeplitzMatrix> solver(t, Eigen::EigenvaluesOnly);
-  return solver.eigenvalues()[0];
+  return HermitianEigenvalues(MakeToeplitz(c))[0];
 }
 
 double SmallestEigenvalueZeroDiagonal(std::span<const Complex> c) {
@@ -39,8 +36,7 @@ double SmallestEigenvalueZeroDiagonal(std::span<const Complex> c) {
   }
   ToeplitzMatrix t = MakeToeplitz(c);
   t.diagonal().setZero();
-  Eigen::SelfAdjointEigenSolver<ToeplitzMatrix> solver(t, Eigen::EigenvaluesOnly);
-  return std::min(0.0, solver.eigenvalues()[0]);
+  return std::min(0.0, HermitianEigenvalues(t)[0]);
 }
 
 double EstimateZerothMoment(std::span<const Complex> c, double epsilon) {

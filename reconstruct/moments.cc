@@ -1,6 +1,7 @@
 // Toeplitz matrices and moments of Dirac measures (thesis def. 2.10, eq. 8.1).
 #include "transient/reconstruct/moments.h"
 
+#include <Eigen/Eigenvalues>
 #include <cassert>
 #include <cmath>
 
@@ -23,6 +24,13 @@ ToeplitzMatrix MakeToeplitz(std::span<const Complex> c) {
     }
   }
   return t;
+}
+
+RealSmallVector HermitianEigenvalues(const ToeplitzMatrix& t, ToeplitzMatrix* eigenvectors) {
+  const Eigen::SelfAdjointEigenSolver<ToeplitzMatrix> solver(
+      t, eigenvectors != nullptr ? Eigen::ComputeEigenvectors : Eigen::EigenvaluesOnly);
+  if (eigenvectors != nullptr) *eigenvectors = solver.eigenvectors();
+  return solver.eigenvalues();
 }
 
 void DiracMoments(std::span<const double> phases, std::span<const double> weights,

@@ -1,7 +1,6 @@
 // Pisarenko estimate (thesis alg. 8.2 and its general case, §8.4.1).
 #include "transient/reconstruct/pisarenko.h"
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
@@ -86,15 +85,14 @@ bool Pisarenko(std::span<const Complex> c, PisarenkoEstimate* estimate) {
   for (const Complex& value : c) {
     if (!std::isfinite(value.real()) || !std::isfinite(value.imag())) return false;
   }
-  const ToeplitzMatrix t = MakeToeplitz(c);
-  Eigen::SelfAdjointEigenSolver<ToeplitzMatrix> solver(t, Eigen::ComputeEigenvectors);
-  const double lambda_min = solver.eigenvalues()[0];
+  ToeplitzMatrix eigenvectors;
+  const double lambda_min = HermitianEigenvalues(MakeToeplitz(c), &eigenvectors)[0];
   estimate->uniform = lambda_min;
   estimate->count = 0;
 
   // Roots of sum_j conj(v_j) x^j for the eigenvector v of lambda_min (thesis alg. 8.2, step 2).
   std::array<Complex, kMaxMoments> coefficients;
-  for (int j = 0; j < size; ++j) coefficients[j] = std::conj(solver.eigenvectors()(j, 0));
+  for (int j = 0; j < size; ++j) coefficients[j] = std::conj(eigenvectors(j, 0));
   std::array<Complex, kMaxOrder> roots;
   const int degree = PolynomialRoots(std::span<const Complex>(coefficients.data(), size), roots);
   std::array<double, kMaxOrder> phases;

@@ -27,6 +27,14 @@ using SmallVector = Eigen::Matrix<Complex, Eigen::Dynamic, 1, 0, kMaxMoments, 1>
 // is used: c_0 is real by definition.
 ToeplitzMatrix MakeToeplitz(std::span<const Complex> c);
 
+// The eigenvalues of a Hermitian matrix of at most kMaxMoments rows, ascending, and where
+// `eigenvectors` is not null its unit eigenvectors, as columns in the same order: Eigen's dense
+// SelfAdjointEigenSolver, here for every caller (biasing, Pisarenko) so that the slowest of the
+// core's templates to compile is compiled once.
+using RealSmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxMoments, 1>;
+RealSmallVector HermitianEigenvalues(const ToeplitzMatrix& t,
+                                     ToeplitzMatrix* eigenvectors = nullptr);
+
 // Trigonometric moments c_j = sum_l w_l exp(i*j*phi_l), j = 0..m, of a sum of Dirac deltas
 // (thesis eq. 8.1). `moments` has m+1 entries.
 void DiracMoments(std::span<const double> phases, std::span<const double> weights,
