@@ -8,13 +8,6 @@
 #include "transient/reconstruct/levinson.h"
 
 namespace transient {
-namespace {
-
-// Relative slack under which lambda_min counts as already at the bound, so that moments that
-// were just estimated or biased are not reported as changed by rounding.
-constexpr double kBoundSlack = 1e-10;
-
-}  // namespace
 
 double SmallestEigenvalue(std::span<const Complex> c) {
   return HermitianEigenvalues(MakeToeplitz(c))[0];
@@ -52,7 +45,7 @@ bool Bias(std::span<Complex> c, double epsilon, BiasMode mode) {
   // eigenvalues of the zero-diagonal part by s. Either way lambda_min reaches epsilon * c_0.
   const double zero_diagonal_min = SmallestEigenvalueZeroDiagonal(c);
   const double lambda_min = c0 + zero_diagonal_min;
-  if (lambda_min >= (epsilon - kBoundSlack) * c0) return false;
+  if (lambda_min >= (epsilon - kBiasBoundSlack) * c0) return false;
   switch (mode) {
     case BiasMode::kRaiseZeroth:
       c[0] = Complex(-zero_diagonal_min / (1.0 - epsilon), 0.0);

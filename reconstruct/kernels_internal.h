@@ -108,6 +108,13 @@ PisarenkoImage AllocatePisarenko(const SolvedImage& solved);
 // lambda_min: then lambda_min > eps c_0 already and biasing would change nothing.
 void SolvePixels(const MomentImage& moments, const SolveOptions& options, bool quick_bias_check,
                  int64_t begin, int64_t end, SolvedImage* solved);
+// The optimized solve of pixels [begin, end) for a measured c_0 (ZerothMoment::kMeasured): for
+// orders up to 8 (under the sanitizers 1, 3, 4 and 8), eight or four pixels at a time in SIMD
+// lanes (optimized_solve.cc), biasing included; the pixels whose biasing the lanes cannot vouch
+// for, the last ones of the block and other orders by SolvePixels. Returns how many pixels that
+// needed biasing's lambda_min the lanes decided.
+int64_t SolveBlock(const MomentImage& moments, const SolveOptions& options, int64_t begin,
+                   int64_t end, SolvedImage* solved);
 // With a `grid`, each pixel tries PisarenkoByLevinson first and takes Pisarenko() where that
 // declines; without, Pisarenko() alone (the reference).
 void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end, PisarenkoImage* result,

@@ -75,8 +75,8 @@ bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min_out, std::
     // shifts below 0 growing fourfold from c_0 / 64: the first that the recursion passes
     // (positive definite, or past lambda_min only in its last step) starts Newton's steps.
     double off_diagonal = 0.0;
-    for (int j = 1; j < size; ++j) off_diagonal += 2.0 * std::abs(c[j]);
-    const double gershgorin = c0 - off_diagonal - 1e-9 * c0;
+    for (int j = 1; j < size; ++j) off_diagonal += 2.0 * std::sqrt(std::norm(c[j]));
+    const double gershgorin = c0 - off_diagonal - kToeplitzGershgorinMargin * c0;
     above = lambda;
     if (start == ToeplitzStart::kSearchBelowZero) {
       // shift < 0: for a subnormal c_0, -c_0 / 64 rounds to -0, which growing would not move.

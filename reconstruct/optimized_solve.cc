@@ -1,14 +1,17 @@
-// The optimized solve: validation, the biasing check and Levinson's algorithm (thesis alg. 8.1)
-// for eight or four pixels at a time (kernels_simd.h), one SIMD lane per pixel, with the results of
-// the reference's per-pixel loop (reference_kernels.cc, levinson.cc) bit for bit:
-// - every lane runs the same IEEE operations in the same order as Levinson() on std::complex
-//   (a complex product is (ac - bd, ad + bc)), and this file is compiled without contraction
-//   into fused multiply-adds (-ffp-contract=off, reconstruct/CMakeLists.txt), which the
-//   reference, built for baseline x86-64, never uses either;
+// The optimized solve: validation, biasing (thesis §8.3.3) and Levinson's algorithm (thesis
+// alg. 8.1) for eight or four pixels at a time (kernels_simd.h), one SIMD lane per pixel, with the
+// results of the reference's per-pixel loop (reference_kernels.cc, biasing.cc, levinson.cc) bit
+// for bit:
+// - every lane runs the same IEEE operations in the same order as the scalar code on
+//   std::complex (a complex product is (ac - bd, ad + bc)), and this file is compiled without
+//   contraction into fused multiply-adds (-ffp-contract=off, reconstruct/CMakeLists.txt), which
+//   the reference, built for baseline x86-64, never uses either;
 // - Levinson's positive-definiteness test at c_0 (1 - eps) proves lambda_min > eps c_0 for
-//   most pixels, which then need no biasing; the others (and every pixel when c_0 is
-//   estimated) take the reference's per-pixel path, which finds lambda_min for biasing
-//   (biasing.cc: Newton's steps on Levinson's recursion, or a dense eigen-solve).
+//   pixels that then need no biasing; for the others (91 % of a calibrated camera's VGA frame,
+//   docs/speed.md) biasing's lambda_min comes from ToeplitzLambdaMin's steps in lanes
+//   (levinson_lanes.inc), and a pixel whose lanes cannot vouch for it, like every pixel when c_0
+//   is estimated, takes the reference's per-pixel path (biasing.cc: the same steps, then
+//   Gershgorin's start or a dense eigen-solve).
 #include <cassert>
 #include <cstdint>
 #include <cstring>
@@ -17,7 +20,9 @@
 
 #include "kernels_internal.h"
 #include "kernels_simd.h"
+#include "transient/reconstruct/biasing.h"
 #include "transient/reconstruct/kernels.h"
+#include "transient/reconstruct/levinson.h"
 
 namespace transient::optimized {
 namespace {
@@ -26,10 +31,10 @@ namespace {
 #define TRANSIENT_LANE_CODE "optimized_solve_lanes.inc"
 #include "simd_namespaces.inc"
 
-TRANSIENT_SIMD_VARIANTS(SolveBlock, SolveBlockAnyOrder,
+TRANSIENT_SIMD_VARIANTS(SolveBlockLanes, SolveBlockAnyOrder,
                         (const MomentImage& moments, const SolveOptions& options, int64_t begin,
-                         int64_t end, SolvedImage* solved),
-                        (moments, options, begin, end, solved))
+                         int64_t end, SolvedImage* solved, int64_t* decided),
+                        (moments, options, begin, end, solved, decided))
 
 }  // namespace
 
@@ -39,7 +44,7 @@ void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage*
   const bool lanes = options.zeroth == ZerothMoment::kMeasured;
   internal::ParallelBlocks(moments.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
     if (lanes) {
-      SolveBlock(moments, options, begin, end, solved);
+      (void)internal::SolveBlock(moments, options, begin, end, solved);
     } else {
       internal::SolvePixels(moments, options, /*quick_bias_check=*/true, begin, end, solved);
     }
@@ -47,3 +52,14 @@ void Solve(const MomentImage& moments, const SolveOptions& options, SolvedImage*
 }
 
 }  // namespace transient::optimized
+
+namespace transient::internal {
+
+int64_t SolveBlock(const MomentImage& moments, const SolveOptions& options, int64_t begin,
+                   int64_t end, SolvedImage* solved) {
+  int64_t decided = 0;
+  optimized::SolveBlockLanes(moments, options, begin, end, solved, &decided);
+  return decided;
+}
+
+}  // namespace transient::internal

@@ -32,6 +32,10 @@ double EstimateZerothMoment(std::span<const Complex> c, double epsilon);
 // kRaiseZeroth: c_0 += (epsilon*c_0 - lambda_min) / (1 - epsilon);
 // kScaleMoments: c_j *= (1 - epsilon) * c_0 / -lambda_min(zero diagonal), j >= 1.
 // Both reach lambda_min == epsilon * c_0 exactly (up to rounding).
+// The optimized solve's lanes (optimized_solve_lanes.inc) repeat its arithmetic, with:
+// relative slack under which lambda_min counts as already at the bound, so that moments that
+// were just estimated or biased are not reported as changed by rounding.
 bool Bias(std::span<Complex> c, double epsilon, BiasMode mode);
+inline constexpr double kBiasBoundSlack = 1e-10;
 
 }  // namespace transient
