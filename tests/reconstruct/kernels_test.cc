@@ -37,15 +37,16 @@ constexpr double kPisarenkoPhaseTolerance = 1e-5;  // radians
 constexpr double kPisarenkoMassTolerance = 1e-5;   // relative to c_0
 constexpr ImageGeometry kGeometry{37, 23};     // not a multiple of any block or vector size
 
-// Pixels with 1..m+1 returns, a uniform part from 0 to 0.2, noise that makes some of them
-// need biasing, a few invalid ones (NaN, no light, masked) and one of uniform light alone.
-MomentImage RandomFrame(int m, uint64_t seed) {
+// Pixels with 1..m+1 returns, a uniform part from 0 to 0.2, noise (of standard deviation
+// `noise` per moment) that makes some of them need biasing, a few invalid ones (NaN, no light,
+// masked) and one of uniform light alone.
+MomentImage RandomFrame(int m, uint64_t seed, double noise_sigma = 0.01) {
   std::mt19937_64 rng(seed);
   MomentImage image(kGeometry, m);
   const int64_t pixels = kGeometry.pixel_count();
   image.valid.assign(pixels, 1);
   std::uniform_real_distribution<double> uniform(0.0, 0.2);
-  std::normal_distribution<double> noise(0.0, 0.01);
+  std::normal_distribution<double> noise(0.0, noise_sigma);
   for (int64_t p = 0; p < pixels; ++p) {
     const int count = 1 + static_cast<int>(rng() % (m + 1));
     const auto measure = testing::RandomSparseMeasure(count, 0.05, uniform(rng), rng);
@@ -85,37 +86,43 @@ int64_t CountUnequalBits(const std::vector<double>& got, const std::vector<doubl
 
 TEST_P(Kernels, SolveMatchesTheReferenceWithIdenticalFlags) {
   const int m = GetParam();
-  const MomentImage image = RandomFrame(m, 100 + m);
-  for (const BiasMode mode : {BiasMode::kRaiseZeroth, BiasMode::kScaleMoments}) {
-    SCOPED_TRACE(mode == BiasMode::kRaiseZeroth ? "raise c_0" : "scale c_1..c_m");
-    const SolveOptions options{.bias_mode = mode};
-    const SolvedImage expected = reference::Solve(image, options);
-    const SolvedImage got = optimized::Solve(image, options);
-    ASSERT_EQ(got.flags, expected.flags);
-    int biased = 0;
-    for (uint8_t f : got.flags) biased += (f & kFlagBiased) != 0;
-    EXPECT_GT(biased, 0) << "the frame should exercise biasing";
-    EXPECT_LT(biased, kGeometry.pixel_count()) << "and the quick check";
-    EXPECT_EQ(CountUnequalBits(got.c_real, expected.c_real), 0);
-    EXPECT_EQ(CountUnequalBits(got.c_imag, expected.c_imag), 0);
-    EXPECT_EQ(CountUnequalBits(got.q_real, expected.q_real), 0);
-    EXPECT_EQ(CountUnequalBits(got.q_imag, expected.q_imag), 0);
+  // The usual frame, and one whose noise takes most pixels far past the moment set: biasing's
+  // search below zero then takes more steps, some pixels bisect, and some reach Gershgorin's
+  // start, which the lanes leave to the per-pixel path.
+  for (const double noise : {0.01, 0.2}) {
+    const MomentImage image = RandomFrame(m, 100 + m, noise);
+    for (const BiasMode mode : {BiasMode::kRaiseZeroth, BiasMode::kScaleMoments}) {
+      SCOPED_TRACE(absl::StrCat(mode == BiasMode::kRaiseZeroth ? "raise c_0" : "scale c_1..c_m",
+                                ", noise ", noise));
+      const SolveOptions options{.bias_mode = mode};
+      const SolvedImage expected = reference::Solve(image, options);
+      const SolvedImage got = optimized::Solve(image, options);
+      ASSERT_EQ(got.flags, expected.flags);
+      int biased = 0;
+      for (uint8_t f : got.flags) biased += (f & kFlagBiased) != 0;
+      EXPECT_GT(biased, 0) << "the frame should exercise biasing";
+      if (noise < 0.1) EXPECT_LT(biased, kGeometry.pixel_count()) << "and the quick check";
+      EXPECT_EQ(CountUnequalBits(got.c_real, expected.c_real), 0);
+      EXPECT_EQ(CountUnequalBits(got.c_imag, expected.c_imag), 0);
+      EXPECT_EQ(CountUnequalBits(got.q_real, expected.q_real), 0);
+      EXPECT_EQ(CountUnequalBits(got.q_imag, expected.q_imag), 0);
 
-    // Biasing's lambda_min in SIMD lanes for m <= 8 (under the sanitizers the lanes are
-    // compiled for m = 1, 3, 4 and 8 only: the orders this suite runs); the pixels the lanes
-    // cannot vouch for, and every pixel above m = 8, one by one.
-    SolvedImage lanes;
-    internal::PrepareSolved(image, &lanes);
-    const int64_t decided =
-        internal::SolveBlock(image, options, 0, kGeometry.pixel_count(), &lanes);
-    RecordProperty(absl::StrCat("lane_biasing_", static_cast<int>(mode)),
-                   absl::StrCat(decided, " of ", biased, " biased"));
-    EXPECT_EQ(lanes.flags, expected.flags);
-    EXPECT_EQ(CountUnequalBits(lanes.q_real, expected.q_real), 0);
-    if (m <= 8) {
-      EXPECT_GE(decided, 0.9 * biased) << "m = " << m;
-    } else {
-      EXPECT_EQ(decided, 0) << "m = " << m;
+      // Biasing's lambda_min in SIMD lanes for m <= 8 (under the sanitizers the lanes are
+      // compiled for m = 1, 3, 4 and 8 only: the orders this suite runs); the pixels the lanes
+      // cannot vouch for, and every pixel above m = 8, one by one.
+      SolvedImage lanes;
+      internal::PrepareSolved(image, &lanes);
+      const int64_t decided =
+          internal::SolveBlock(image, options, 0, kGeometry.pixel_count(), &lanes);
+      RecordProperty(absl::StrCat("lane_biasing_", static_cast<int>(mode), "_noise_", noise),
+                     absl::StrCat(decided, " of ", biased, " biased"));
+      EXPECT_EQ(lanes.flags, expected.flags);
+      EXPECT_EQ(CountUnequalBits(lanes.q_real, expected.q_real), 0);
+      if (m <= 8) {
+        EXPECT_GE(decided, 0.9 * biased) << "m = " << m;
+      } else {
+        EXPECT_EQ(decided, 0) << "m = " << m;
+      }
     }
   }
 }
