@@ -77,6 +77,9 @@ bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min_out, std::
     double off_diagonal = 0.0;
     for (int j = 1; j < size; ++j) off_diagonal += 2.0 * std::sqrt(std::norm(c[j]));
     const double gershgorin = c0 - off_diagonal - kToeplitzGershgorinMargin * c0;
+    // |c_j|^2 overflows beyond ~1e154: no bound to start from or search to (the dense
+    // eigen-solve decides; moments from float images never come near).
+    if (!std::isfinite(gershgorin)) return false;
     above = lambda;
     if (start == ToeplitzStart::kSearchBelowZero) {
       // shift < 0: for a subnormal c_0, -c_0 / 64 rounds to -0, which growing would not move.

@@ -86,9 +86,10 @@ int64_t CountUnequalBits(const std::vector<double>& got, const std::vector<doubl
 
 TEST_P(Kernels, SolveMatchesTheReferenceWithIdenticalFlags) {
   const int m = GetParam();
-  // The usual frame, and one whose noise takes most pixels far past the moment set: biasing's
-  // search below zero then takes more steps, some pixels bisect, and some reach Gershgorin's
-  // start, which the lanes leave to the per-pixel path.
+  // The usual frame, and one whose noise takes most pixels far past the moment set, where
+  // biasing's search below zero takes more steps. (In neither does a pixel reach Gershgorin's
+  // start, collapse its bracket or run out of steps: the test below has the first; the lanes
+  // follow the scalar code through the other two, which random frames of floats do not reach.)
   for (const double noise : {0.01, 0.2}) {
     const MomentImage image = RandomFrame(m, 100 + m, noise);
     for (const BiasMode mode : {BiasMode::kRaiseZeroth, BiasMode::kScaleMoments}) {
@@ -115,15 +116,48 @@ TEST_P(Kernels, SolveMatchesTheReferenceWithIdenticalFlags) {
       const int64_t decided =
           internal::SolveBlock(image, options, 0, kGeometry.pixel_count(), &lanes);
       RecordProperty(absl::StrCat("lane_biasing_", static_cast<int>(mode), "_noise_", noise),
-                     absl::StrCat(decided, " of ", biased, " biased"));
+                     absl::StrCat(decided, " decided in lanes; ", biased, " biased"));
       EXPECT_EQ(lanes.flags, expected.flags);
+      EXPECT_EQ(CountUnequalBits(lanes.c_real, expected.c_real), 0);
+      EXPECT_EQ(CountUnequalBits(lanes.c_imag, expected.c_imag), 0);
       EXPECT_EQ(CountUnequalBits(lanes.q_real, expected.q_real), 0);
+      EXPECT_EQ(CountUnequalBits(lanes.q_imag, expected.q_imag), 0);
       if (m <= 8) {
         EXPECT_GE(decided, 0.9 * biased) << "m = " << m;
       } else {
         EXPECT_EQ(decided, 0) << "m = " << m;
       }
     }
+  }
+}
+
+// Moments whose search below zero fails down to Gershgorin's bound: c = (1, 5, 0, ..., 0), whose
+// leading 2 x 2 minor has lambda_min = -4, so that C - shift I fails the recursion at 0,
+// -1/64, ..., -4, and -16 is below the bound (1 - 10). ToeplitzLambdaMin then starts from the
+// bound; the solve's lanes leave such pixels to the per-pixel path, whose results are the
+// reference's. (At m = 1 there is no leading minor to fail: the start at 0 passes.)
+TEST(SolveLanes, LeaveBiasingFromGershgorinsBoundToThePerPixelPath) {
+  for (const int m : {3, 4, 8}) {  // orders whose lanes are compiled under the sanitizers too
+    SCOPED_TRACE(absl::StrCat("m = ", m));
+    const ImageGeometry geometry{16, 1};
+    MomentImage image(geometry, m);
+    for (int64_t p = 0; p < geometry.pixel_count(); ++p) {
+      for (int j = 0; j <= m; ++j) {
+        image.real_plane(j)[p] = j == 0 ? 1.0f : j == 1 ? 5.0f : 0.0f;
+        image.imag_plane(j)[p] = 0.0f;
+      }
+    }
+    const SolvedImage expected = reference::Solve(image, SolveOptions{});
+    SolvedImage lanes;
+    internal::PrepareSolved(image, &lanes);
+    const int64_t decided =
+        internal::SolveBlock(image, SolveOptions{}, 0, geometry.pixel_count(), &lanes);
+    EXPECT_EQ(decided, 0);
+    EXPECT_EQ(lanes.flags, expected.flags);
+    EXPECT_EQ(lanes.flags[0], kFlagBiased);
+    EXPECT_EQ(CountUnequalBits(lanes.c_real, expected.c_real), 0);
+    EXPECT_EQ(CountUnequalBits(lanes.q_real, expected.q_real), 0);
+    EXPECT_EQ(CountUnequalBits(lanes.q_imag, expected.q_imag), 0);
   }
 }
 

@@ -152,5 +152,19 @@ TEST(ToeplitzLambdaMin, EndsForASubnormalZerothMoment) {
   EXPECT_NEAR(SmallestEigenvalueZeroDiagonal(c), -1.0, 1e-9);
 }
 
+TEST(ToeplitzLambdaMin, DeclinesWhereGershgorinsBoundOverflows) {
+  // |c_1|^2 overflows, and so does the bound (levinson.h): from either start the steps decline
+  // at once (the search below zero would otherwise run until its shift overflowed, ~180
+  // recursions), and the dense eigen-solve gives biasing its value.
+  const std::vector<Complex> c = {1e160, Complex(1.2e160, 0.3e160), Complex(0.2e160, -0.7e160)};
+  std::vector<Complex> q(3);
+  double lambda_min = 0.0;
+  EXPECT_FALSE(ToeplitzLambdaMin(c, &lambda_min, q, ToeplitzStart::kGershgorin));
+  EXPECT_FALSE(ToeplitzLambdaMin(c, &lambda_min, q, ToeplitzStart::kSearchBelowZero));
+  const double expected = SmallestEigenvalue(c) - c[0].real();
+  EXPECT_NEAR(SmallestEigenvalueZeroDiagonal(c), expected, 1e-12 * 1e160);
+  EXPECT_LT(SmallestEigenvalueZeroDiagonal(c), -1e160);
+}
+
 }  // namespace
 }  // namespace transient

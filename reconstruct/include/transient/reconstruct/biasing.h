@@ -31,11 +31,11 @@ double EstimateZerothMoment(std::span<const Complex> c, double epsilon);
 // (thesis §8.3.3). Returns true when c was changed. Requires c_0 > 0 and 0 < epsilon < 1.
 // kRaiseZeroth: c_0 += (epsilon*c_0 - lambda_min) / (1 - epsilon);
 // kScaleMoments: c_j *= (1 - epsilon) * c_0 / -lambda_min(zero diagonal), j >= 1.
-// Both reach lambda_min == epsilon * c_0 exactly (up to rounding).
-// The optimized solve's lanes (optimized_solve_lanes.inc) repeat its arithmetic, with:
-// relative slack under which lambda_min counts as already at the bound, so that moments that
-// were just estimated or biased are not reported as changed by rounding.
+// Both reach lambda_min == epsilon * c_0 exactly (up to rounding). Unchanged where lambda_min
+// is at least (epsilon - kBiasBoundSlack) c_0, so that moments that were just estimated or
+// biased are not reported as changed by rounding. The optimized solve's lanes
+// (optimized_solve_lanes.inc) repeat this arithmetic operation for operation.
+inline constexpr double kBiasBoundSlack = 1e-10;  // relative to c_0
 bool Bias(std::span<Complex> c, double epsilon, BiasMode mode);
-inline constexpr double kBiasBoundSlack = 1e-10;
 
 }  // namespace transient

@@ -43,7 +43,10 @@ enum class LevinsonOutcome { kPositiveDefinite, kLastStepIndefinite, kFailed };
 inline constexpr double kToeplitzLambdaTolerance = 1e-12;  // relative to c_0
 inline constexpr int kToeplitzLambdaMaxSteps = 64;  // Newton converges in ~5; bisection halves
 // Gershgorin's bound on lambda_min is c_0 - 2 sum_j |c_j| (|c_j| as the square root of
-// |c_j|^2, which SIMD lanes compute alike), less this much times c_0 to stay below it.
+// |c_j|^2, which SIMD lanes compute alike), less this much times c_0 to stay below it. Where
+// |c_j|^2 overflows (|c_j| beyond ~1e154) the steps need that bound and decline; where it
+// underflows (below ~1e-154) the value may not bound lambda_min, and the steps decline or
+// start closer.
 inline constexpr double kToeplitzGershgorinMargin = 1e-9;
 enum class ToeplitzStart { kGershgorin, kSearchBelowZero };
 [[nodiscard]] bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min,
