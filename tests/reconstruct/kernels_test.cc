@@ -10,6 +10,7 @@
 
 #include <bit>
 #include <cmath>
+#include <complex>
 #include <cstdlib>
 #include <iostream>
 #include <limits>
@@ -88,8 +89,7 @@ TEST_P(Kernels, SolveMatchesTheReferenceWithIdenticalFlags) {
   const int m = GetParam();
   // The usual frame, and one whose noise takes most pixels far past the moment set, where
   // biasing's search below zero takes more steps. (In neither does a pixel reach Gershgorin's
-  // start, collapse its bracket or run out of steps: the test below has the first; the lanes
-  // follow the scalar code through the other two, which random frames of floats do not reach.)
+  // start, collapse its bracket or run out of steps: the SolveLanes tests below have those.)
   for (const double noise : {0.01, 0.2}) {
     const MomentImage image = RandomFrame(m, 100 + m, noise);
     for (const BiasMode mode : {BiasMode::kRaiseZeroth, BiasMode::kScaleMoments}) {
@@ -158,6 +158,136 @@ TEST(SolveLanes, LeaveBiasingFromGershgorinsBoundToThePerPixelPath) {
     EXPECT_EQ(CountUnequalBits(lanes.c_real, expected.c_real), 0);
     EXPECT_EQ(CountUnequalBits(lanes.q_real, expected.q_real), 0);
     EXPECT_EQ(CountUnequalBits(lanes.q_imag, expected.q_imag), 0);
+  }
+}
+
+// Moments far past the moment set (c_0 a thousandth or less of |c_j|, as noise could make of a
+// dark pixel) whose lambda_min ToeplitzLambdaMin's search below zero ends in the two ways that
+// random frames never reach (a search over 1.8 M random vectors found these):
+// - a collapsed bracket (c_0 ~ 1e-4): Newton's step leaves a bracket narrower than the
+//   tolerance, and lambda_min is the bracket's middle, eigenvector-like: the lanes vouch;
+// - the step limit (c_0 ~ 1e-6 and below): the tolerance, kToeplitzLambdaTolerance c_0, is below
+//   the rounding of lambda_min ~ -1, so Newton's steps never get under it and the scalar code
+//   declines after kToeplitzLambdaMaxSteps recursions: so do the lanes, for the per-pixel path.
+// Two of each per order, cyclically over the 16 pixels, so that the lanes of one vector end in
+// different ways; every result bit for bit the reference's.
+TEST(SolveLanes, FollowTheScalarSearchToACollapsedBracketAndToItsStepLimit) {
+  using Moments = std::vector<std::complex<float>>;
+  struct Order {
+    int m;
+    std::vector<Moments> collapsed, step_limit;
+  };
+  const std::vector<Order> orders = {
+      {3,
+       {{{0.000125718303f, 0.0f},
+         {0.269875675f, 0.00324794254f},
+         {0.122146212f, 0.118517525f},
+         {-0.458267599f, 0.467290074f}},
+        {{0.000132199173f, 0.0f},
+         {0.384019315f, -0.199481055f},
+         {-0.266842455f, -0.125648245f},
+         {-0.101782702f, 0.478893042f}}},
+       {{{1.27122507e-06f, 0.0f},
+         {-0.159219727f, -0.417188078f},
+         {-0.463278025f, 0.0642449409f},
+         {0.312678397f, 0.486924499f}},
+        {{2.28486852e-09f, 0.0f},
+         {0.340172917f, 0.0790213272f},
+         {0.280617833f, 0.169090167f},
+         {-0.464614242f, 0.22212182f}}}},
+      {4,
+       {{{0.000117583062f, 0.0f},
+         {0.0233230758f, -0.416335642f},
+         {-0.41708383f, -0.276463658f},
+         {0.422964722f, 0.344018906f},
+         {0.331299216f, -0.217356294f}},
+        {{0.000112575624f, 0.0f},
+         {0.133488968f, -0.248291746f},
+         {-0.0274520144f, -0.00166879117f},
+         {0.197728753f, 0.317791313f},
+         {0.435137391f, -0.14361085f}}},
+       {{{1.92812184e-08f, 0.0f},
+         {0.300866991f, -0.486310124f},
+         {0.0287920963f, 0.0870540291f},
+         {0.415006429f, -0.082201384f},
+         {0.0532497242f, -0.111437269f}},
+        {{7.17409932e-07f, 0.0f},
+         {-0.147720888f, 0.264627725f},
+         {-0.355538219f, 0.139570981f},
+         {0.0451472588f, -0.140093416f},
+         {-0.290351748f, 0.318747818f}}}},
+      {8,
+       {{{0.000407226849f, 0.0f},
+         {0.0472123027f, -0.261005253f},
+         {-0.108022422f, -0.310607523f},
+         {0.113935329f, 0.201170534f},
+         {0.108667575f, 0.380708426f},
+         {-0.224628627f, 0.289818645f},
+         {-0.246455461f, -0.138697207f},
+         {-0.248885483f, 0.25450635f},
+         {0.497632384f, 0.429406345f}},
+        {{0.000256246305f, 0.0f},
+         {-0.10274069f, -0.00403562281f},
+         {-0.302264512f, -0.240343496f},
+         {-0.00262379763f, -0.126776546f},
+         {-0.0770902485f, 0.0194907729f},
+         {0.221315354f, 0.12500383f},
+         {0.330951542f, 0.337402642f},
+         {-0.424630225f, 0.081936948f},
+         {-0.279760182f, -0.0969453007f}}},
+       {{{3.80276879e-06f, 0.0f},
+         {0.217031971f, -0.192746297f},
+         {0.300414354f, 0.402042717f},
+         {-0.177643582f, 0.420314997f},
+         {-0.112317041f, -0.164336041f},
+         {0.403600514f, -0.222959071f},
+         {0.321765244f, -0.315924793f},
+         {0.167742774f, 0.212740242f},
+         {-0.319353044f, 0.438275546f}},
+        {{1.96380623e-09f, 0.0f},
+         {0.445314646f, -0.070285514f},
+         {-0.227333099f, 0.0921122357f},
+         {-0.248992458f, -0.189707503f},
+         {-0.210756615f, -0.219997242f},
+         {0.0827297121f, -0.120876618f},
+         {0.11783275f, -0.253973365f},
+         {0.393238008f, 0.23023954f},
+         {-0.000188633654f, -0.174377307f}}}},
+  };
+  for (const Order& order : orders) {
+    const int m = order.m;  // orders whose lanes are compiled under the sanitizers too
+    std::vector<Moments> cycle = order.collapsed;
+    cycle.insert(cycle.end(), order.step_limit.begin(), order.step_limit.end());
+    const ImageGeometry geometry{16, 1};
+    MomentImage image(geometry, m);
+    int64_t collapsed = 0;
+    for (int64_t p = 0; p < geometry.pixel_count(); ++p) {
+      const size_t which = p % cycle.size();
+      collapsed += which < order.collapsed.size();
+      for (int j = 0; j <= m; ++j) {
+        image.real_plane(j)[p] = cycle[which][j].real();
+        image.imag_plane(j)[p] = cycle[which][j].imag();
+      }
+    }
+    for (const BiasMode mode : {BiasMode::kRaiseZeroth, BiasMode::kScaleMoments}) {
+      SCOPED_TRACE(absl::StrCat(
+          "m = ", m, mode == BiasMode::kRaiseZeroth ? ", raise c_0" : ", scale c_1..c_m"));
+      const SolveOptions options{.bias_mode = mode};
+      const SolvedImage expected = reference::Solve(image, options);
+      SolvedImage lanes;
+      internal::PrepareSolved(image, &lanes);
+      const int64_t decided =
+          internal::SolveBlock(image, options, 0, geometry.pixel_count(), &lanes);
+      EXPECT_EQ(decided, collapsed);  // the step limit's pixels go to the per-pixel path
+      EXPECT_EQ(lanes.flags, expected.flags);
+      for (int64_t p = 0; p < geometry.pixel_count(); ++p) {
+        EXPECT_EQ(lanes.flags[p], kFlagBiased) << "pixel " << p;
+      }
+      EXPECT_EQ(CountUnequalBits(lanes.c_real, expected.c_real), 0);
+      EXPECT_EQ(CountUnequalBits(lanes.c_imag, expected.c_imag), 0);
+      EXPECT_EQ(CountUnequalBits(lanes.q_real, expected.q_real), 0);
+      EXPECT_EQ(CountUnequalBits(lanes.q_imag, expected.q_imag), 0);
+    }
   }
 }
 

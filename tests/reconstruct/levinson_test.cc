@@ -4,6 +4,8 @@
 
 #include <Eigen/Dense>
 #include <array>
+#include <complex>
+#include <initializer_list>
 #include <iostream>
 #include <limits>
 #include <random>
@@ -150,6 +152,37 @@ TEST(ToeplitzLambdaMin, EndsForASubnormalZerothMoment) {
     EXPECT_NEAR(lambda_min, SmallestEigenvalue(c), 1e-9);
   }
   EXPECT_NEAR(SmallestEigenvalueZeroDiagonal(c), -1.0, 1e-9);
+}
+
+// Moments far past the moment set, c_0 a thousandth or less of |c_j| (found by a search over
+// random vectors; SolveLanes.* in kernels_test.cc runs more of them through the solve's lanes).
+// With c_0 ~ 1e-4 the search below zero ends on a collapsed bracket: Newton's step leaves a
+// bracket narrower than the tolerance, whose middle is lambda_min. With c_0 ~ 1e-6 the
+// tolerance, kToeplitzLambdaTolerance c_0 ~ 1e-18, is below the rounding of lambda_min ~ -1:
+// the steps never get under it, and ToeplitzLambdaMin declines after kToeplitzLambdaMaxSteps
+// recursions (biasing then takes the dense eigen-solve) instead of looping on.
+TEST(ToeplitzLambdaMin, EndsOnACollapsedBracketOrAtItsStepLimit) {
+  // Floats, as the search found them (the same values rounded otherwise end differently).
+  const auto from_floats = [](std::initializer_list<std::complex<float>> c) {
+    return std::vector<Complex>(c.begin(), c.end());
+  };
+  const std::vector<Complex> collapsed = from_floats({0.000125718303f,
+                                                      {0.269875675f, 0.00324794254f},
+                                                      {0.122146212f, 0.118517525f},
+                                                      {-0.458267599f, 0.467290074f}});
+  const std::vector<Complex> step_limit = from_floats({1.27122507e-06f,
+                                                       {-0.159219727f, -0.417188078f},
+                                                       {-0.463278025f, 0.0642449409f},
+                                                       {0.312678397f, 0.486924499f}});
+  std::vector<Complex> q(4);
+  double lambda_min = 0.0;
+  ASSERT_TRUE(ToeplitzLambdaMin(collapsed, &lambda_min, q, ToeplitzStart::kSearchBelowZero));
+  EXPECT_TRUE(LooksLikeLambdaMinEigenvector(q));
+  EXPECT_NEAR(lambda_min, SmallestEigenvalue(collapsed), 1e-12);
+  EXPECT_LT(lambda_min, -0.5);
+  EXPECT_FALSE(ToeplitzLambdaMin(step_limit, &lambda_min, q, ToeplitzStart::kSearchBelowZero));
+  EXPECT_NEAR(SmallestEigenvalueZeroDiagonal(step_limit),
+              SmallestEigenvalue(step_limit) - step_limit[0].real(), 1e-12);
 }
 
 TEST(ToeplitzLambdaMin, DeclinesWhereGershgorinsBoundOverflows) {
