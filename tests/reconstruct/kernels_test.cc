@@ -166,11 +166,13 @@ TEST(SolveLanes, LeaveBiasingFromGershgorinsBoundToThePerPixelPath) {
 // random frames never reach (a search over 1.8 M random vectors found these):
 // - a collapsed bracket (c_0 ~ 1e-4): Newton's step leaves a bracket narrower than the
 //   tolerance, and lambda_min is the bracket's middle, eigenvector-like: the lanes vouch;
-// - the step limit (c_0 ~ 1e-6 and below): the tolerance, kToeplitzLambdaTolerance c_0, is below
+// - the step limit (c_0 of 4e-6 and below): the tolerance, kToeplitzLambdaTolerance c_0, is below
 //   the rounding of lambda_min ~ -1, so Newton's steps never get under it and the scalar code
 //   declines after kToeplitzLambdaMaxSteps recursions: so do the lanes, for the per-pixel path.
 // Two of each per order, cyclically over the 16 pixels, so that the lanes of one vector end in
-// different ways; every result bit for bit the reference's.
+// different ways; every result bit for bit the reference's. (Which exit a pixel takes is not
+// visible from outside; lanes changed to give another value at a collapsed bracket, or to vouch
+// at the step limit, fail this test.)
 TEST(SolveLanes, FollowTheScalarSearchToACollapsedBracketAndToItsStepLimit) {
   using Moments = std::vector<std::complex<float>>;
   struct Order {
