@@ -108,6 +108,28 @@ double MeseCumulative::operator()(double phase) const {
   return sum.real();
 }
 
+CumulativeTerms MeseCumulative::Terms() const {
+  // Per pole: w = 1 - u / x_l with Re w >= 1 - 1/|x_l| > 0, so arg w = atan(Im w / Re w)
+  // (glibc's atan2 took a third of the time). The term's real part is A_l (log|w| - log|w_0|)
+  // + B_l (arg w - arg w_0), w_0 = 1 - 1/x_l, with A_l = Re b_l - Im a_l and
+  // B_l = Im b_l - Re a_l for a_l = outer_coefficient_ and b_l = inner_coefficient_ (the terms
+  // of operator()). w_0 comes from the same arithmetic as w at phase 0, so F(0) = 0 exactly.
+  CumulativeTerms t;
+  t.degree = degree_;
+  t.slope = slope_;
+  for (int l = 0; l < degree_; ++l) {
+    const Complex inverse = 1.0 / outer_pole_[l];
+    t.inverse_re[l] = inverse.real();
+    t.inverse_im[l] = inverse.imag();
+    t.weight_log[l] = inner_coefficient_[l].real() - outer_coefficient_[l].imag();
+    t.weight_arg[l] = inner_coefficient_[l].imag() - outer_coefficient_[l].real();
+    const Complex w = ShiftedPole(1.0, 0.0, t.inverse_re[l], t.inverse_im[l]);
+    t.log_0[l] = LogNorm(w);
+    t.arg_0[l] = ArgOfRight(w);
+  }
+  return t;
+}
+
 void MeseCumulative::Evaluate(std::span<const double> phases, std::span<const double> cosines,
                               std::span<const double> sines, float* out, int64_t stride) const {
   const size_t count = phases.size();
@@ -115,28 +137,14 @@ void MeseCumulative::Evaluate(std::span<const double> phases, std::span<const do
     for (size_t n = 0; n < count; ++n) out[n * stride] = static_cast<float>((*this)(phases[n]));
     return;
   }
-  // Per pole: w = 1 - u / x_l with Re w >= 1 - 1/|x_l| > 0, so arg w = atan(Im w / Re w)
-  // (glibc's atan2 took a third of the time). The term's real part is A_l (log|w| - log|w_0|)
-  // + B_l (arg w - arg w_0), w_0 = 1 - 1/x_l, with A_l = Re b_l - Im a_l and
-  // B_l = Im b_l - Re a_l for a_l = outer_coefficient_ and b_l = inner_coefficient_ (the terms
-  // of operator()). w_0 comes from the same arithmetic as w at phase 0, so F(0) = 0 exactly.
-  std::array<double, kMaxOrder> inverse_re, inverse_im, weight_log, weight_arg, log_0, arg_0;
-  for (int l = 0; l < degree_; ++l) {
-    const Complex inverse = 1.0 / outer_pole_[l];
-    inverse_re[l] = inverse.real();
-    inverse_im[l] = inverse.imag();
-    weight_log[l] = inner_coefficient_[l].real() - outer_coefficient_[l].imag();
-    weight_arg[l] = inner_coefficient_[l].imag() - outer_coefficient_[l].real();
-    const Complex w = ShiftedPole(1.0, 0.0, inverse_re[l], inverse_im[l]);
-    log_0[l] = LogNorm(w);
-    arg_0[l] = ArgOfRight(w);
-  }
+  const CumulativeTerms t = Terms();
   for (size_t n = 0; n < count; ++n) {
     const double c = cosines[n], s = sines[n];
-    double sum = slope_ * phases[n];
-    for (int l = 0; l < degree_; ++l) {
-      const Complex w = ShiftedPole(c, s, inverse_re[l], inverse_im[l]);
-      sum += weight_log[l] * (LogNorm(w) - log_0[l]) + weight_arg[l] * (ArgOfRight(w) - arg_0[l]);
+    double sum = t.slope * phases[n];
+    for (int l = 0; l < t.degree; ++l) {
+      const Complex w = ShiftedPole(c, s, t.inverse_re[l], t.inverse_im[l]);
+      sum += t.weight_log[l] * (LogNorm(w) - t.log_0[l]) +
+             t.weight_arg[l] * (ArgOfRight(w) - t.arg_0[l]);
     }
     out[n * stride] = static_cast<float>(sum);
   }

@@ -126,11 +126,16 @@ void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end, Pisa
 // the lanes decided.
 int64_t PisarenkoBlock(const SolvedImage& solved, const PisarenkoSearchGrid& grid, int64_t begin,
                        int64_t end, PisarenkoImage* result);
-// With the phases' cosines and sines, by MeseCumulative::Evaluate (the optimized kernels);
-// without, by MeseCumulative::operator() at each phase (the reference).
+// By MeseCumulative::operator() at each phase (the reference).
 void CumulativePixels(const SolvedImage& solved, std::span<const double> phases, int64_t begin,
-                      int64_t end, std::span<float> out, std::span<const double> cosines = {},
-                      std::span<const double> sines = {});
+                      int64_t end, std::span<float> out);
+// The optimized kernel's (optimized_cumulative.cc): the closed form at kLanes phases a vector,
+// given the phases' cosines and sines; the rest by MeseCumulative::Evaluate.
+void CumulativeLanes(const SolvedImage& solved, std::span<const double> phases,
+                     std::span<const double> cosines, std::span<const double> sines, int64_t begin,
+                     int64_t end, std::span<float> out);
+// The lanes' log x and atan(y / x) (x > 0) of `count` values, for the tests of their accuracy.
+void LogAndArgLanes(const double* x, const double* y, int64_t count, double* log, double* arg);
 void BoundPixels(const SolvedImage& solved, double r, std::span<const double> phases, int64_t begin,
                  int64_t end, std::span<float> lower, std::span<float> upper);
 

@@ -6,14 +6,14 @@
 //   product followed by a reciprocal, vectorized over pixels; phi, -phi, pi + phi and pi - phi
 //   share one evaluation of the series' even and odd parts (PhaseOrbits), and outputs larger
 //   than the caches are written with streaming stores;
-// - Pisarenko by PisarenkoByLevinson's route, eight or four pixels at a time in SIMD lanes for m <=
-// 8
-//   (internal::PisarenkoBlock, optimized_pisarenko.cc), per pixel above and where the lanes
-//   decline, the reference's Pisarenko() where that declines too; the cumulative's logarithms
-//   as real log and atan (MeseCumulative::Evaluate) with the phases' cosines and sines tabled
-//   once;
+// - Pisarenko by PisarenkoByLevinson's route, eight or four pixels at a time in SIMD lanes for
+//   m <= 8 (internal::PisarenkoBlock, optimized_pisarenko.cc), per pixel above and where the
+//   lanes decline, the reference's Pisarenko() where that declines too;
+// - the cumulative's closed form (MeseCumulative, per pixel) summed at eight or four phases at
+//   a time with the phases' cosines and sines tabled once, its logarithms as real log and atan
+//   computed in the lanes (internal::CumulativeLanes, optimized_cumulative.cc);
 // - OpenMP threads over blocks of pixels for everything, including the per-pixel solvers
-//   (cumulative, bounds) that stay scalar.
+//   (the cumulative's partial fractions, bounds) that stay scalar.
 // The series is summed in double: near a sharp peak it cancels to ~eps^2/(m+1)^2 of a_0, which
 // float could not resolve; the final division is float (its operands are then exact to 1e-7).
 #include <immintrin.h>
@@ -376,7 +376,7 @@ void CumulativeSlices(const SolvedImage& solved, std::span<const double> phases,
     sines[n] = std::sin(phases[n]);
   }
   internal::ParallelBlocks(solved.geometry.pixel_count(), [&](int64_t begin, int64_t end) {
-    internal::CumulativePixels(solved, phases, begin, end, out, cosines, sines);
+    internal::CumulativeLanes(solved, phases, cosines, sines, begin, end, out);
   });
 }
 

@@ -127,8 +127,7 @@ void PisarenkoPixels(const SolvedImage& solved, int64_t begin, int64_t end, Pisa
 }
 
 void CumulativePixels(const SolvedImage& solved, std::span<const double> phases, int64_t begin,
-                      int64_t end, std::span<float> out, std::span<const double> cosines,
-                      std::span<const double> sines) {
+                      int64_t end, std::span<float> out) {
   const int64_t pixels = solved.geometry.pixel_count();
   std::array<Complex, kMaxMoments> q_storage;
   const std::span<Complex> q(q_storage.data(), solved.order + 1);
@@ -138,10 +137,6 @@ void CumulativePixels(const SolvedImage& solved, std::span<const double> phases,
     if (ok) {
       solved.coefficients(p, q);
       ok = cumulative.Init(q);
-    }
-    if (ok && !cosines.empty()) {
-      cumulative.Evaluate(phases, cosines, sines, &out[p], pixels);
-      continue;
     }
     for (size_t n = 0; n < phases.size(); ++n) {
       out[n * pixels + p] = ok ? static_cast<float>(cumulative(phases[n])) : kNaNf;

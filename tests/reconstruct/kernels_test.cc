@@ -353,6 +353,51 @@ TEST_P(Kernels, DensityMeetsTheContractForAnyPhases) {
   }
 }
 
+// The cumulative's lane logarithm and arctangent (optimized_cumulative_lanes.inc) against
+// glibc's, at this CPU's level or TRANSIENT_SIMD's: within 4 units in the last place, over the
+// exponents the closed form's |w|^2 can take and every quadrant of the right half-plane.
+TEST(CumulativeLanes, LogAndArgAreGlibcsToFourUnitsInTheLastPlace) {
+  std::vector<double> x, y;
+  std::mt19937_64 random(17);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int e = -1000; e <= 1000; e += 7) {
+    for (int k = 0; k < 8; ++k) {
+      x.push_back(std::ldexp(1.0 + unit(random), e));
+      y.push_back(std::ldexp(unit(random) - 0.5, e + static_cast<int>(unit(random) * 40) - 20));
+    }
+  }
+  for (int k = 0; k < 4000; ++k) {  // near |w| = 1, and y / x near the reduction's bounds
+    x.push_back(1.0 + std::ldexp(unit(random) - 0.5, -static_cast<int>(unit(random) * 50)));
+    const double ratio =
+        std::tan(std::numbers::pi / 16 * static_cast<int>(unit(random) * 8)) *
+        (1.0 + std::ldexp(unit(random) - 0.5, -static_cast<int>(unit(random) * 50)));
+    y.push_back((k % 2 == 0 ? 1.0 : -1.0) * ratio * x.back());
+  }
+  x.push_back(1.0), y.push_back(0.0);  // log 1 = 0 and atan 0 = 0 exactly
+  x.push_back(std::numeric_limits<double>::min()), y.push_back(1.0);
+  std::vector<double> log(x.size()), arg(x.size());
+  internal::LogAndArgLanes(x.data(), y.data(), static_cast<int64_t>(x.size()), log.data(),
+                           arg.data());
+  const auto ulps = [](double got, double expected) {
+    if (got == expected) return 0.0;
+    const double unit = std::nextafter(std::abs(expected), INFINITY) - std::abs(expected);
+    return std::abs(got - expected) / unit;
+  };
+  double worst_log = 0.0, worst_arg = 0.0;
+  for (size_t i = 0; i < x.size(); ++i) {
+    const double l = ulps(log[i], std::log(x[i])), a = ulps(arg[i], std::atan2(y[i], x[i]));
+    EXPECT_LE(l, 4.0) << "log " << x[i] << ": " << log[i] << " against " << std::log(x[i]);
+    EXPECT_LE(a, 4.0) << "atan2 " << y[i] << ", " << x[i] << ": " << arg[i] << " against "
+                      << std::atan2(y[i], x[i]);
+    worst_log = std::max(worst_log, l);
+    worst_arg = std::max(worst_arg, a);
+  }
+  EXPECT_EQ(log[x.size() - 2], 0.0);
+  EXPECT_EQ(arg[x.size() - 2], 0.0);
+  RecordProperty("worst_log_ulps", absl::StrCat(worst_log));
+  RecordProperty("worst_arg_ulps", absl::StrCat(worst_arg));
+}
+
 TEST_P(Kernels, CumulativeAndBoundsMatchTheReference) {
   const int m = GetParam();
   const SolvedImage solved = reference::Solve(RandomFrame(m, 300 + m), SolveOptions{});

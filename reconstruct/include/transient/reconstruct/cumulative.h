@@ -18,6 +18,17 @@ namespace transient {
 // blow up and cancel badly, so Init checks the root separation and that the linear term
 // integrates to c_0; if either fails, the cumulative is computed by adaptive Simpson
 // quadrature of D instead (closed_form() is false) — slower, never wrong.
+// The closed form's real terms, for evaluating it at many phases:
+// F(phi) = slope phi + sum_l weight_log[l] (log|w_l| - log_0[l]) + weight_arg[l] (arg w_l -
+// arg_0[l]), w_l = 1 - (cos phi + i sin phi) (inverse_re[l] + i inverse_im[l]), whose real part
+// is positive, so that arg w_l = atan(Im w_l / Re w_l).
+struct CumulativeTerms {
+  int degree = 0;
+  double slope = 0.0;
+  std::array<double, kMaxOrder> inverse_re{}, inverse_im{}, weight_log{}, weight_arg{};
+  std::array<double, kMaxOrder> log_0{}, arg_0{};
+};
+
 class MeseCumulative {
  public:
   // q from Levinson(). Returns false only for an invalid q (q_0 <= 0 or not finite).
@@ -36,6 +47,8 @@ class MeseCumulative {
   // sum), which a sum of c_0-sized terms does not need. Otherwise each phase by quadrature.
   void Evaluate(std::span<const double> phases, std::span<const double> cosines,
                 std::span<const double> sines, float* out, int64_t stride) const;
+  // The terms that Evaluate sums (closed form only).
+  CumulativeTerms Terms() const;
 
  private:
   double Quadrature(double phase) const;
