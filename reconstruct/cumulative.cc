@@ -30,7 +30,7 @@ inline double ArgOfRight(Complex w) { return std::atan(w.imag() / w.real()); }  
 
 }  // namespace
 
-bool MeseCumulative::Init(std::span<const Complex> q) {
+bool MeseCumulative::Init(std::span<const Complex> q, RootMethod method) {
   const double q0 = q[0].real();
   if (!(q0 > 0.0) || !std::isfinite(q0)) return false;
   size_ = static_cast<int>(q.size());
@@ -41,7 +41,7 @@ bool MeseCumulative::Init(std::span<const Complex> q) {
   c0_ = c[0].real();
 
   std::array<Complex, kMaxOrder> roots;
-  degree_ = MeseRoots(q, roots);
+  degree_ = MeseRoots(q, roots, method);
   const int n = degree_;
   for (int l = 0; l < n; ++l) {
     for (int k = 0; k < l; ++k) {

@@ -49,10 +49,10 @@ SeriesValue EvaluateDenominatorSeries(std::span<const Complex> a, double phase) 
   return result;
 }
 
-int MeseRoots(std::span<const Complex> q, std::span<Complex> roots) {
+int MeseRoots(std::span<const Complex> q, std::span<Complex> roots, RootMethod method) {
   std::array<Complex, kMaxMoments> coefficients;
   for (size_t j = 0; j < q.size(); ++j) coefficients[j] = std::conj(q[j]);
-  return PolynomialRoots(std::span<const Complex>(coefficients.data(), q.size()), roots);
+  return PolynomialRoots(std::span<const Complex>(coefficients.data(), q.size()), roots, method);
 }
 
 }  // namespace transient

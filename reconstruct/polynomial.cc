@@ -1,8 +1,10 @@
-// Complex polynomial roots via the companion matrix, polished by Newton's method.
+// Complex polynomial roots via the companion matrix or Aberth-Ehrlich's iteration, polished by
+// Newton's method.
 #include "transient/reconstruct/polynomial.h"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <cmath>
 
@@ -11,6 +13,12 @@ namespace {
 
 constexpr double kNegligibleLeading = 1e-14;  // relative size below which a coefficient is 0
 constexpr int kPolishSteps = 3;
+// Aberth-Ehrlich's iteration stops after a sweep in which every correction was below this
+// share of its root's modulus (the convergence is cubic for simple roots: the roots are then
+// exact to rounding, and Newton's polish after it finds nothing to improve in most cases), and
+// declines after this many sweeps.
+constexpr double kAberthTolerance = 1e-14;
+constexpr int kAberthSweeps = 50;
 
 // On the heap: with a maximum size on the stack, Eigen's solver default-constructs (zeroes)
 // every complex of its 32 x 32 work matrices, ~80 KB a call, which cost more than the solve at
@@ -37,7 +45,80 @@ Complex EvaluatePolynomial(std::span<const Complex> coefficients, Complex x) {
   return p;
 }
 
-int PolynomialRoots(std::span<const Complex> coefficients, std::span<Complex> roots) {
+bool AberthRoots(std::span<const Complex> a, std::span<Complex> roots) {
+  const int n = static_cast<int>(a.size()) - 1;
+  assert(n >= 1 && n <= kMaxPolynomialDegree && roots.size() >= static_cast<size_t>(n));
+  // Real arithmetic throughout: std::complex's division calls __divdc3 and its abs hypot,
+  // which cost more than the iteration at these degrees.
+  double ar[kMaxPolynomialDegree + 1], ai[kMaxPolynomialDegree + 1];
+  for (int j = 0; j <= n; ++j) {
+    ar[j] = a[j].real();
+    ai[j] = a[j].imag();
+  }
+  // Start on the circle of the roots' geometric mean modulus |a_0 / a_n|^(1/n), at angles off
+  // the real axis (real coefficients would otherwise keep the iterates in conjugate pairs).
+  const double radius = std::pow(std::abs(a[0]) / std::abs(a[n]), 1.0 / n);
+  if (!(radius > 0.0) || !std::isfinite(radius)) return false;
+  double zr[kMaxPolynomialDegree], zi[kMaxPolynomialDegree];
+  for (int k = 0; k < n; ++k) {
+    const double angle = kTwoPi * k / n + 0.4;
+    zr[k] = radius * std::cos(angle);
+    zi[k] = radius * std::sin(angle);
+  }
+  const double tolerance_squared = kAberthTolerance * kAberthTolerance;
+  for (int sweep = 0; sweep < kAberthSweeps; ++sweep) {
+    bool converged = true;
+    for (int k = 0; k < n; ++k) {
+      const double xr = zr[k], xi = zi[k];
+      double pr = ar[n], pi = ai[n], dr = 0.0, di = 0.0;  // p and p' by Horner
+      for (int j = n - 1; j >= 0; --j) {
+        const double next_dr = dr * xr - di * xi + pr;
+        di = dr * xi + di * xr + pi;
+        dr = next_dr;
+        const double next_pr = pr * xr - pi * xi + ar[j];
+        pi = pr * xi + pi * xr + ai[j];
+        pr = next_pr;
+      }
+      const double d2 = dr * dr + di * di;
+      if (!(d2 > 0.0)) return false;  // p' = 0 at an iterate (or overflow, NaN)
+      const double rr = (pr * dr + pi * di) / d2, ri = (pi * dr - pr * di) / d2;  // p / p'
+      double sr = 0.0, si = 0.0;  // sum over the other iterates of 1 / (z_k - z_j)
+      for (int j = 0; j < n; ++j) {
+        if (j == k) continue;
+        const double ur = xr - zr[j], ui = xi - zi[j];
+        const double u2 = ur * ur + ui * ui;
+        sr += ur / u2;
+        si -= ui / u2;
+      }
+      // The correction (p / p') / (1 - (p / p') s).
+      const double er = 1.0 - (rr * sr - ri * si), ei = -(rr * si + ri * sr);
+      const double e2 = er * er + ei * ei;
+      const double wr = (rr * er + ri * ei) / e2, wi = (ri * er - rr * ei) / e2;
+      if (!std::isfinite(wr) || !std::isfinite(wi)) return false;  // iterates met, or overflow
+      zr[k] = xr - wr;
+      zi[k] = xi - wi;
+      if (!(wr * wr + wi * wi <= tolerance_squared * (zr[k] * zr[k] + zi[k] * zi[k]))) {
+        converged = false;
+      }
+    }
+    if (converged) {
+      // Vieta: the roots sum to -a_{n-1} / a_n. Two iterates that had settled on one root,
+      // leaving another out, would miss it by the difference of the two.
+      Complex sum = 0.0;
+      double size = 0.0;
+      for (int k = 0; k < n; ++k) {
+        roots[k] = Complex(zr[k], zi[k]);
+        sum += roots[k];
+        size += std::abs(roots[k]);
+      }
+      return std::abs(sum + a[n - 1] / a[n]) <= 1e-8 * size;
+    }
+  }
+  return false;
+}
+
+int PolynomialRoots(std::span<const Complex> coefficients, std::span<Complex> roots,
+                    RootMethod method) {
   assert(!coefficients.empty() && coefficients.size() <= kMaxPolynomialDegree + 1);
   assert(roots.size() + 1 >= coefficients.size());
   double largest = 0.0;
@@ -50,13 +131,17 @@ int PolynomialRoots(std::span<const Complex> coefficients, std::span<Complex> ro
     roots[0] = -a[0] / a[1];
     return 1;
   }
-  // Companion matrix of the monic polynomial x^n + sum_{j<n} (a_j/a_n) x^j.
-  CompanionMatrix companion = CompanionMatrix::Zero(degree, degree);
-  for (int i = 1; i < degree; ++i) companion(i, i - 1) = 1.0;
-  for (int i = 0; i < degree; ++i) companion(i, degree - 1) = -a[i] / a[degree];
-  Eigen::ComplexEigenSolver<CompanionMatrix> solver(companion, /*computeEigenvectors=*/false);
+  std::array<Complex, kMaxPolynomialDegree> start;
+  if (method != RootMethod::kAberth || !AberthRoots(a, std::span<Complex>(start.data(), degree))) {
+    // Companion matrix of the monic polynomial x^n + sum_{j<n} (a_j/a_n) x^j.
+    CompanionMatrix companion = CompanionMatrix::Zero(degree, degree);
+    for (int i = 1; i < degree; ++i) companion(i, i - 1) = 1.0;
+    for (int i = 0; i < degree; ++i) companion(i, degree - 1) = -a[i] / a[degree];
+    Eigen::ComplexEigenSolver<CompanionMatrix> solver(companion, /*computeEigenvectors=*/false);
+    for (int i = 0; i < degree; ++i) start[i] = solver.eigenvalues()[i];
+  }
   for (int i = 0; i < degree; ++i) {
-    Complex x = solver.eigenvalues()[i];
+    Complex x = start[i];
     Complex value, derivative;
     EvaluateWithDerivative(a, x, &value, &derivative);
     for (int step = 0; step < kPolishSteps; ++step) {

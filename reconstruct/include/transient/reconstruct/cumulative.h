@@ -6,6 +6,7 @@
 #include <span>
 
 #include "transient/reconstruct/moments.h"
+#include "transient/reconstruct/polynomial.h"
 
 namespace transient {
 
@@ -31,8 +32,11 @@ struct CumulativeTerms {
 
 class MeseCumulative {
  public:
-  // q from Levinson(). Returns false only for an invalid q (q_0 <= 0 or not finite).
-  [[nodiscard]] bool Init(std::span<const Complex> q);
+  // q from Levinson(). Returns false only for an invalid q (q_0 <= 0 or not finite). The roots
+  // of the denominator polynomial by `method` (MeseRoots): the optimized kernel's kAberth
+  // polishes the same roots to rounding, without Eigen's Schur decomposition where it can.
+  [[nodiscard]] bool Init(std::span<const Complex> q,
+                          RootMethod method = RootMethod::kCompanionMatrix);
 
   // F_D([0, phi]) for phi in [0, 2*pi]; F(0) = 0 and F(2*pi) = c_0.
   double operator()(double phase) const;

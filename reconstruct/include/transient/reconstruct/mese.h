@@ -7,6 +7,7 @@
 #include <span>
 
 #include "transient/reconstruct/moments.h"
+#include "transient/reconstruct/polynomial.h"
 
 namespace transient {
 
@@ -35,6 +36,7 @@ SeriesValue EvaluateDenominatorSeries(std::span<const Complex> a, double phase);
 
 // Roots of the denominator polynomial sum_j conj(q_j) x^j (eq. 8.5); all lie strictly outside
 // the unit circle (lemma B.9). Returns their number (the degree, m unless q_m vanishes).
-int MeseRoots(std::span<const Complex> q, std::span<Complex> roots);
+int MeseRoots(std::span<const Complex> q, std::span<Complex> roots,
+              RootMethod method = RootMethod::kCompanionMatrix);
 
 }  // namespace transient
