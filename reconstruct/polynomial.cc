@@ -4,7 +4,6 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
-#include <array>
 #include <cassert>
 #include <cmath>
 
@@ -131,17 +130,17 @@ int PolynomialRoots(std::span<const Complex> coefficients, std::span<Complex> ro
     roots[0] = -a[0] / a[1];
     return 1;
   }
-  std::array<Complex, kMaxPolynomialDegree> start;
-  if (method != RootMethod::kAberth || !AberthRoots(a, std::span<Complex>(start.data(), degree))) {
-    // Companion matrix of the monic polynomial x^n + sum_{j<n} (a_j/a_n) x^j.
-    CompanionMatrix companion = CompanionMatrix::Zero(degree, degree);
-    for (int i = 1; i < degree; ++i) companion(i, i - 1) = 1.0;
-    for (int i = 0; i < degree; ++i) companion(i, degree - 1) = -a[i] / a[degree];
-    Eigen::ComplexEigenSolver<CompanionMatrix> solver(companion, /*computeEigenvectors=*/false);
-    for (int i = 0; i < degree; ++i) start[i] = solver.eigenvalues()[i];
-  }
+  // Aberth's roots are final: its last sweep moved each by less than 1e-14 of its modulus, and
+  // a Newton step after it would move them by as little (BM_CumulativeSlices at m = 3 ran 12 %
+  // faster without that polish).
+  if (method == RootMethod::kAberth && AberthRoots(a, roots.first(degree))) return degree;
+  // Companion matrix of the monic polynomial x^n + sum_{j<n} (a_j/a_n) x^j.
+  CompanionMatrix companion = CompanionMatrix::Zero(degree, degree);
+  for (int i = 1; i < degree; ++i) companion(i, i - 1) = 1.0;
+  for (int i = 0; i < degree; ++i) companion(i, degree - 1) = -a[i] / a[degree];
+  Eigen::ComplexEigenSolver<CompanionMatrix> solver(companion, /*computeEigenvectors=*/false);
   for (int i = 0; i < degree; ++i) {
-    Complex x = start[i];
+    Complex x = solver.eigenvalues()[i];
     Complex value, derivative;
     EvaluateWithDerivative(a, x, &value, &derivative);
     for (int step = 0; step < kPolishSteps; ++step) {

@@ -19,7 +19,8 @@ enum class RootMethod {
 };
 
 // Roots of sum_j coefficients[j] * x^j (ascending powers), as eigenvalues of the companion
-// matrix or by AberthRoots (`method`), each polished by Newton steps. Leading coefficients that
+// matrix polished by Newton steps, or by AberthRoots where `method` asks for it and it does not
+// decline (its roots are final to rounding, with no polish). Leading coefficients that
 // are negligible relative to the largest one (|a| <= 1e-14 * max |a|) are dropped, which lowers
 // the degree; the number of roots written to `roots` (the degree) is returned. Returns 0 for a
 // constant polynomial. `roots` must hold coefficients.size() - 1 entries.
