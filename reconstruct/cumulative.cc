@@ -34,6 +34,7 @@ bool MeseCumulative::Init(std::span<const Complex> q, RootMethod method) {
   const double q0 = q[0].real();
   if (!(q0 > 0.0) || !std::isfinite(q0)) return false;
   size_ = static_cast<int>(q.size());
+  log_at_zero_ready_ = false;
   for (int j = 0; j < size_; ++j) q_[j] = q[j];
   closed_form_ = false;
   std::array<Complex, kMaxMoments> c;
@@ -79,7 +80,6 @@ bool MeseCumulative::Init(std::span<const Complex> q, RootMethod method) {
     // int_0^phi dt / (e^{it} - y) = -(i/y) Log(1 - y e^{-i phi}) + const,          |y| < 1.
     outer_pole_[l] = x;
     outer_coefficient_[l] = -outer_residue / x;
-    log_at_zero_[l] = std::log(1.0 - 1.0 / x);
     inner_coefficient_[l] = -i * inner_residue / y;
     if (!std::isfinite(std::abs(outer_coefficient_[l])) ||
         !std::isfinite(std::abs(inner_coefficient_[l]))) {
@@ -95,6 +95,10 @@ bool MeseCumulative::Init(std::span<const Complex> q, RootMethod method) {
 
 double MeseCumulative::operator()(double phase) const {
   if (!closed_form_) return Quadrature(phase);
+  if (!log_at_zero_ready_) {
+    for (int l = 0; l < degree_; ++l) log_at_zero_[l] = std::log(1.0 - 1.0 / outer_pole_[l]);
+    log_at_zero_ready_ = true;
+  }
   const Complex unit = std::polar(1.0, phase);
   Complex sum = slope_ * phase;
   const Complex i(0.0, 1.0);
