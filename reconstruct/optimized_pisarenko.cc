@@ -47,6 +47,7 @@
 #include "kernels_simd.h"
 #include "transient/reconstruct/levinson.h"
 #include "transient/reconstruct/pisarenko.h"
+#include "transient/reconstruct/polynomial.h"
 #include "transient/reconstruct/reconstructor.h"
 
 namespace transient {
@@ -226,15 +227,8 @@ bool PisarenkoByLevinson(std::span<const Complex> c, const PisarenkoSearchGrid& 
     y /= length;
     bool converged = false;
     for (int step = 0; step < kMaxRootSteps; ++step) {
-      double v_re = p_re[m], v_im = p_im[m], d_re = 0.0, d_im = 0.0;
-      for (int j = m - 1; j >= 0; --j) {  // Horner for P and P'
-        const double e_re = d_re * x - d_im * y + v_re;
-        d_im = d_re * y + d_im * x + v_im;
-        d_re = e_re;
-        const double f_re = v_re * x - v_im * y + p_re[j];
-        v_im = v_re * y + v_im * x + p_im[j];
-        v_re = f_re;
-      }
+      const PolynomialAndDerivative at = EvaluateWithDerivative(p_re, p_im, m, x, y);
+      const double v_re = at.re, v_im = at.im, d_re = at.d_re, d_im = at.d_im;
       const double denominator = d_re * d_re + d_im * d_im;
       if (!(denominator > 0.0)) break;
       const double dx = (v_re * d_re + v_im * d_im) / denominator;

@@ -1,5 +1,5 @@
-// Complex polynomial roots via the companion matrix or Aberth-Ehrlich's iteration, polished by
-// Newton's method.
+// Complex polynomial roots via the companion matrix polished by Newton's method, or by
+// Aberth-Ehrlich's iteration.
 #include "transient/reconstruct/polynomial.h"
 
 #include <Eigen/Eigenvalues>
@@ -13,9 +13,8 @@ namespace {
 constexpr double kNegligibleLeading = 1e-14;  // relative size below which a coefficient is 0
 constexpr int kPolishSteps = 3;
 // Aberth-Ehrlich's iteration stops after a sweep in which every correction was below this
-// share of its root's modulus (the convergence is cubic for simple roots: the roots are then
-// exact to rounding, and Newton's polish after it finds nothing to improve in most cases), and
-// declines after this many sweeps.
+// share of its root's modulus (the convergence is cubic for simple roots: they are then exact
+// to rounding), and declines after this many sweeps.
 constexpr double kAberthTolerance = 1e-14;
 constexpr int kAberthSweeps = 50;
 
@@ -24,7 +23,9 @@ constexpr int kAberthSweeps = 50;
 // the degrees used (3..16): the cumulative's profile showed 10 % in memset.
 using CompanionMatrix = Eigen::Matrix<Complex, Eigen::Dynamic, Eigen::Dynamic>;
 
-// p(x) and p'(x) together.
+// p(x) and p'(x) together, in std::complex arithmetic: the polish of the companion matrix's
+// roots, whose rounding the reference kernels' results keep (the real-arithmetic Horner of
+// polynomial.h serves the iterations written in real arithmetic).
 void EvaluateWithDerivative(std::span<const Complex> a, Complex x, Complex* value,
                             Complex* derivative) {
   Complex p = 0.0, dp = 0.0;
@@ -69,15 +70,8 @@ bool AberthRoots(std::span<const Complex> a, std::span<Complex> roots) {
     bool converged = true;
     for (int k = 0; k < n; ++k) {
       const double xr = zr[k], xi = zi[k];
-      double pr = ar[n], pi = ai[n], dr = 0.0, di = 0.0;  // p and p' by Horner
-      for (int j = n - 1; j >= 0; --j) {
-        const double next_dr = dr * xr - di * xi + pr;
-        di = dr * xi + di * xr + pi;
-        dr = next_dr;
-        const double next_pr = pr * xr - pi * xi + ar[j];
-        pi = pr * xi + pi * xr + ai[j];
-        pr = next_pr;
-      }
+      const PolynomialAndDerivative v = EvaluateWithDerivative(ar, ai, n, xr, xi);
+      const double pr = v.re, pi = v.im, dr = v.d_re, di = v.d_im;
       const double d2 = dr * dr + di * di;
       if (!(d2 > 0.0)) return false;  // p' = 0 at an iterate (or overflow, NaN)
       const double rr = (pr * dr + pi * di) / d2, ri = (pi * dr - pr * di) / d2;  // p / p'
@@ -130,9 +124,9 @@ int PolynomialRoots(std::span<const Complex> coefficients, std::span<Complex> ro
     roots[0] = -a[0] / a[1];
     return 1;
   }
-  // Aberth's roots are final: its last sweep moved each by less than 1e-14 of its modulus, and
-  // a Newton step after it would move them by as little (BM_CumulativeSlices at m = 3 ran 12 %
-  // faster without that polish).
+  // Aberth's roots as they converged: its last sweep moved each by less than 1e-14 of its
+  // modulus, and a Newton step after it would move a simple root by as little
+  // (BM_CumulativeSlices at m = 3 ran 12 % faster without that polish).
   if (method == RootMethod::kAberth && AberthRoots(a, roots.first(degree))) return degree;
   // Companion matrix of the monic polynomial x^n + sum_{j<n} (a_j/a_n) x^j.
   CompanionMatrix companion = CompanionMatrix::Zero(degree, degree);
