@@ -117,7 +117,8 @@ CumulativeTerms MeseCumulative::Terms() const {
   // (glibc's atan2 took a third of the time). The term's real part is A_l (log|w| - log|w_0|)
   // + B_l (arg w - arg w_0), w_0 = 1 - 1/x_l, with A_l = Re b_l - Im a_l and
   // B_l = Im b_l - Re a_l for a_l = outer_coefficient_ and b_l = inner_coefficient_ (the terms
-  // of operator()). w_0 comes from the same arithmetic as w at phase 0, so F(0) = 0 exactly.
+  // of operator()). Whoever sums them takes w_0 with the same arithmetic as w at the other
+  // phases (Evaluate below, the optimized kernel's lanes), so that F(0) = 0 exactly.
   CumulativeTerms t;
   t.degree = degree_;
   t.slope = slope_;
@@ -127,9 +128,6 @@ CumulativeTerms MeseCumulative::Terms() const {
     t.inverse_im[l] = inverse.imag();
     t.weight_log[l] = inner_coefficient_[l].real() - outer_coefficient_[l].imag();
     t.weight_arg[l] = inner_coefficient_[l].imag() - outer_coefficient_[l].real();
-    const Complex w = ShiftedPole(1.0, 0.0, t.inverse_re[l], t.inverse_im[l]);
-    t.log_0[l] = LogNorm(w);
-    t.arg_0[l] = ArgOfRight(w);
   }
   return t;
 }
@@ -142,13 +140,19 @@ void MeseCumulative::Evaluate(std::span<const double> phases, std::span<const do
     return;
   }
   const CumulativeTerms t = Terms();
+  std::array<double, kMaxOrder> log_0, arg_0;  // at phase 0, by the arithmetic below
+  for (int l = 0; l < t.degree; ++l) {
+    const Complex w = ShiftedPole(1.0, 0.0, t.inverse_re[l], t.inverse_im[l]);
+    log_0[l] = LogNorm(w);
+    arg_0[l] = ArgOfRight(w);
+  }
   for (size_t n = 0; n < count; ++n) {
     const double c = cosines[n], s = sines[n];
     double sum = t.slope * phases[n];
     for (int l = 0; l < t.degree; ++l) {
       const Complex w = ShiftedPole(c, s, t.inverse_re[l], t.inverse_im[l]);
-      sum += t.weight_log[l] * (LogNorm(w) - t.log_0[l]) +
-             t.weight_arg[l] * (ArgOfRight(w) - t.arg_0[l]);
+      sum +=
+          t.weight_log[l] * (LogNorm(w) - log_0[l]) + t.weight_arg[l] * (ArgOfRight(w) - arg_0[l]);
     }
     out[n * stride] = static_cast<float>(sum);
   }

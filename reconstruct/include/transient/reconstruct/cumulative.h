@@ -10,6 +10,17 @@
 
 namespace transient {
 
+// The closed form's real terms, for evaluating it at many phases:
+// F(phi) = slope phi + sum_l weight_log[l] (log|w_l| - log|w_l(0)|) + weight_arg[l] (arg w_l -
+// arg w_l(0)), w_l = 1 - (cos phi + i sin phi) (inverse_re[l] + i inverse_im[l]), whose real
+// part is positive, so that arg w_l = atan(Im w_l / Re w_l); w_l(0) is w_l at phi = 0, taken with
+// the same arithmetic as the other phases' so that F(0) = 0 exactly.
+struct CumulativeTerms {
+  int degree = 0;
+  double slope = 0.0;
+  std::array<double, kMaxOrder> inverse_re{}, inverse_im{}, weight_log{}, weight_arg{};
+};
+
 // Partial-fraction form of D(phi) = sum_l r_l / (exp(i*phi) - x_l) over the m roots x_l of the
 // denominator polynomial (outside the unit circle) and their mirror images 1/conj(x_l)
 // (inside). Each term integrates to a logarithm; we write it as Log(1 - z) with |z| < 1, the
@@ -19,22 +30,11 @@ namespace transient {
 // blow up and cancel badly, so Init checks the root separation and that the linear term
 // integrates to c_0; if either fails, the cumulative is computed by adaptive Simpson
 // quadrature of D instead (closed_form() is false) — slower, never wrong.
-// The closed form's real terms, for evaluating it at many phases:
-// F(phi) = slope phi + sum_l weight_log[l] (log|w_l| - log_0[l]) + weight_arg[l] (arg w_l -
-// arg_0[l]), w_l = 1 - (cos phi + i sin phi) (inverse_re[l] + i inverse_im[l]), whose real part
-// is positive, so that arg w_l = atan(Im w_l / Re w_l).
-struct CumulativeTerms {
-  int degree = 0;
-  double slope = 0.0;
-  std::array<double, kMaxOrder> inverse_re{}, inverse_im{}, weight_log{}, weight_arg{};
-  std::array<double, kMaxOrder> log_0{}, arg_0{};
-};
-
 class MeseCumulative {
  public:
   // q from Levinson(). Returns false only for an invalid q (q_0 <= 0 or not finite). The roots
-  // of the denominator polynomial by `method` (MeseRoots): the optimized kernel's kAberth
-  // polishes the same roots to rounding, without Eigen's Schur decomposition where it can.
+  // of the denominator polynomial by `method` (MeseRoots): the optimized kernel's kAberth finds
+  // the same roots to rounding, without Eigen's Schur decomposition where it can.
   [[nodiscard]] bool Init(std::span<const Complex> q,
                           RootMethod method = RootMethod::kCompanionMatrix);
 
