@@ -43,19 +43,19 @@ int RunBenchCommand(const BenchCommandLine& line) {
     return kExitBadInput;
   }
   std::fprintf(stderr, "transient bench: reference vs optimized, one row at a time...\n");
-  absl::StatusOr<std::vector<::transient::tools::BenchRow>> rows =
+  absl::StatusOr<::transient::tools::BenchReport> report =
       ::transient::tools::RunBench(line.args, [](const ::transient::tools::BenchRow& row) {
         std::fprintf(stderr, "  %s, m = %d, %dx%d, %d thread(s): %.1fx\n", row.kernel.c_str(),
                      row.order, row.width, row.height, row.threads, row.ratio());
       });
-  if (!rows.ok()) {
-    std::cerr << ErrorLine(rows.status()) << "\n";
-    return ExitCodeFor(rows.status());
+  if (!report.ok()) {
+    std::cerr << ErrorLine(report.status()) << "\n";
+    return ExitCodeFor(report.status());
   }
-  std::cout << ::transient::tools::FormatBenchTable(*rows);
+  std::cout << ::transient::tools::FormatBenchTable(*report);
   if (!line.args.json_path.empty()) {
     if (absl::Status status = ::transient::WriteTextFile(
-            line.args.json_path, ::transient::tools::FormatBenchJson(*rows));
+            line.args.json_path, ::transient::tools::FormatBenchJson(*report));
         !status.ok()) {
       std::cerr << ErrorLine(status) << "\n";
       return ExitCodeFor(status);

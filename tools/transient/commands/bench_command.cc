@@ -1,13 +1,17 @@
 // Measurements of `transient bench`. Each row times the reference kernel and the optimized
 // kernel on the same frame in the same run; the reference runs single-threaded (it has no
-// threads), the optimized one with the row's thread count.
+// threads), the optimized one with the row's thread count. The machine's rows time two loops on
+// one thread and on more, at the run's start and end.
 #include "tools/transient/commands/bench_command.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <fstream>
 #include <functional>
 #include <random>
+#include <thread>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -54,7 +58,78 @@ void Measure(const BenchArgs& args, const std::string& kernel, int m, ImageGeome
   SetKernelOptions({});
 }
 
+// `work(t)` for t = 0..threads-1, each on its own thread (t = 0 on the caller's).
+void OnThreads(int threads, const std::function<void(int)>& work) {
+  std::vector<std::thread> others;
+  for (int t = 1; t < threads; ++t) others.emplace_back(work, t);
+  work(0);
+  for (std::thread& thread : others) thread.join();
+}
+
+// Sixteen independent chains of multiply-adds kept in registers (enough to keep the units busy
+// whatever their latency); nothing is read or written in the loop. Returns their sum, so that
+// the compiler keeps the loop.
+// (About 10 ms a call on one thread of a 2026 server core: the threads' start is under 1 % of it.)
+constexpr int kChains = 16, kChainSteps = 1 << 23;
+double MultiplyAddChains() {
+  double x[kChains];
+  for (int i = 0; i < kChains; ++i) x[i] = i;
+  for (int n = 0; n < kChainSteps; ++n) {
+    for (int i = 0; i < kChains; ++i) x[i] = x[i] * 0.999999 + 1e-7;
+  }
+  double sum = 0.0;
+  for (int i = 0; i < kChains; ++i) sum += x[i];
+  return sum;
+}
+
+// Units per second of `probe(t, threads)` run on `threads` threads at once.
+double MachineRate(int threads, double units_per_thread, double min_seconds,
+                   const std::function<void(int, int)>& probe) {
+  const double seconds =
+      SecondsPerCall([&] { OnThreads(threads, [&](int t) { probe(t, threads); }); }, min_seconds);
+  return units_per_thread * threads / seconds;
+}
+
 }  // namespace
+
+std::vector<MachineRow> MeasureMachine(const std::string& when, int threads, double min_seconds) {
+  std::vector<MachineRow> rows;
+  if (threads < 2) return rows;
+  {
+    std::vector<double> sums(threads);
+    const auto probe = [&](int t, int) { sums[t] = MultiplyAddChains(); };
+    const double per_thread = static_cast<double>(kChains) * kChainSteps;
+    rows.push_back({.probe = "multiply-adds in registers",
+                    .when = when,
+                    .threads = threads,
+                    .unit = "multiply-adds/s",
+                    .one_thread = MachineRate(1, per_thread, min_seconds, probe),
+                    .these_threads = MachineRate(threads, per_thread, min_seconds, probe)});
+    volatile double sink = 0.0;
+    for (double sum : sums) sink = sink + sum;
+  }
+  {
+    // 64 MiB, larger than the caches, written once before timing (no page faults in the loop);
+    // each thread stores its own part, the whole buffer kPasses times a call.
+    constexpr int kPasses = 8;
+    std::vector<float> buffer(size_t{16} << 20, 0.0f);
+    const auto probe = [&](int t, int count) {
+      const size_t part = buffer.size() / count;
+      const auto begin = buffer.begin() + t * part;
+      for (int pass = 0; pass < kPasses; ++pass) {
+        std::fill(begin, t + 1 == count ? buffer.end() : begin + part, static_cast<float>(pass));
+      }
+    };
+    const double bytes = static_cast<double>(buffer.size() * sizeof(float)) * kPasses;
+    rows.push_back({.probe = "stores to memory",
+                    .when = when,
+                    .threads = threads,
+                    .unit = "bytes/s",
+                    .one_thread = MachineRate(1, bytes, min_seconds, probe),
+                    .these_threads = MachineRate(threads, bytes / threads, min_seconds, probe)});
+  }
+  return rows;
+}
 
 MomentImage MakeBenchFrame(ImageGeometry geometry, int m) {
   MomentImage image(geometry, m);
@@ -91,10 +166,12 @@ absl::Status BenchArgs::Validate() const {
   return absl::OkStatus();
 }
 
-absl::StatusOr<std::vector<BenchRow>> RunBench(const BenchArgs& args,
-                                               void (*progress)(const BenchRow&)) {
+absl::StatusOr<BenchReport> RunBench(const BenchArgs& args, void (*progress)(const BenchRow&)) {
   if (absl::Status status = args.Validate(); !status.ok()) return status;
-  std::vector<BenchRow> rows;
+  BenchReport report;
+  const int most_threads = *std::max_element(args.threads.begin(), args.threads.end());
+  report.machine = MeasureMachine("start", most_threads, args.min_seconds);
+  std::vector<BenchRow>& rows = report.rows;
   const ImageGeometry pmd{163, 120}, vga{640, 480};
   const double pmd_pixels = static_cast<double>(pmd.pixel_count());
 
@@ -161,10 +238,14 @@ absl::StatusOr<std::vector<BenchRow>> RunBench(const BenchArgs& args,
         },
         &rows, progress);
   }
-  return rows;
+  for (MachineRow& row : MeasureMachine("end", most_threads, args.min_seconds)) {
+    report.machine.push_back(std::move(row));
+  }
+  return report;
 }
 
-std::string FormatBenchTable(const std::vector<BenchRow>& rows) {
+std::string FormatBenchTable(const BenchReport& report) {
+  const std::vector<BenchRow>& rows = report.rows;
   std::string table = absl::StrFormat("%-40s %3s %9s %7s %14s %14s %8s  %s\n", "kernel", "m",
                                       "size", "threads", "reference", "optimized", "ratio", "unit");
   for (const BenchRow& row : rows) {
@@ -172,10 +253,19 @@ std::string FormatBenchTable(const std::vector<BenchRow>& rows) {
                           row.order, absl::StrCat(row.width, "x", row.height), row.threads,
                           row.reference, row.optimized, row.ratio(), row.unit);
   }
+  if (report.machine.empty()) return table;
+  // The machine's rows bound the kernels' ratios from one thread to more.
+  absl::StrAppendFormat(&table, "\n%-40s %5s %7s %14s %14s %8s  %s\n", "machine", "when", "threads",
+                        "one thread", "threads", "ratio", "unit");
+  for (const MachineRow& row : report.machine) {
+    absl::StrAppendFormat(&table, "%-40s %5s %7d %14.4g %14.4g %7.2fx  %s\n", row.probe, row.when,
+                          row.threads, row.one_thread, row.these_threads, row.ratio(), row.unit);
+  }
   return table;
 }
 
-std::string FormatBenchJson(const std::vector<BenchRow>& rows) {
+std::string FormatBenchJson(const BenchReport& report) {
+  const std::vector<BenchRow>& rows = report.rows;
   std::string json = "{\n  \"rows\": [\n";
   for (size_t i = 0; i < rows.size(); ++i) {
     const BenchRow& row = rows[i];
@@ -187,6 +277,17 @@ std::string FormatBenchJson(const std::vector<BenchRow>& rows) {
                           JsonString(row.unit), JsonNumber(row.reference),
                           JsonNumber(row.optimized), JsonNumber(row.ratio()),
                           i + 1 < rows.size() ? "," : "");
+  }
+  json += "  ],\n  \"machine\": [\n";
+  for (size_t i = 0; i < report.machine.size(); ++i) {
+    const MachineRow& row = report.machine[i];
+    absl::StrAppendFormat(&json,
+                          "    {\"probe\": %s, \"when\": %s, \"threads\": %d, \"unit\": %s, "
+                          "\"one_thread\": %s, \"threads_rate\": %s, \"ratio\": %s}%s\n",
+                          JsonString(row.probe), JsonString(row.when), row.threads,
+                          JsonString(row.unit), JsonNumber(row.one_thread),
+                          JsonNumber(row.these_threads), JsonNumber(row.ratio()),
+                          i + 1 < report.machine.size() ? "," : "");
   }
   json += "  ]\n}\n";
   return json;

@@ -1,5 +1,6 @@
 // `transient bench`: the optimized kernels against the scalar reference in one run, with
-// their ratio, on synthetic frames of the thesis's sensor (163x120) and of VGA (640x480).
+// their ratio, on synthetic frames of the thesis's sensor (163x120) and of VGA (640x480); and
+// what this machine gives a second thread at the run's start and end.
 #pragma once
 
 #include <string>
@@ -29,17 +30,39 @@ struct BenchRow {
   double ratio() const { return optimized / reference; }
 };
 
+// What the machine itself gives more threads, by two loops that share nothing between threads:
+// multiply-adds in registers, and plain stores to memory (each thread its own part of a buffer
+// larger than the caches). Their ratio bounds a kernel's own ratio from one thread to more: a
+// virtual machine's second core may be busy with another guest, and stores share the memory.
+struct MachineRow {
+  std::string probe;  // e.g. "multiply-adds in registers"
+  std::string when;   // "start" or "end" of the run
+  int threads = 0;
+  std::string unit;                              // what the rates count per second
+  double one_thread = 0.0, these_threads = 0.0;  // units per second, all threads together
+  double ratio() const { return these_threads / one_thread; }
+};
+
+struct BenchReport {
+  std::vector<BenchRow> rows;
+  std::vector<MachineRow> machine;
+};
+
 // The benchmark frame: every pixel holds three returns and a small uniform component, like
 // the mirrors scene of thesis fig. 8.7, with a little noise so that some pixels need biasing.
 // Deterministic (fixed seed); shared with tests/bench so both suites time the same data.
 MomentImage MakeBenchFrame(ImageGeometry geometry, int m);
 
-// Runs every measurement; `progress` gets a line per row as it completes.
-absl::StatusOr<std::vector<BenchRow>> RunBench(const BenchArgs& args,
-                                               void (*progress)(const BenchRow&) = nullptr);
+// Runs every measurement; `progress` gets a line per kernel row as it completes.
+absl::StatusOr<BenchReport> RunBench(const BenchArgs& args,
+                                     void (*progress)(const BenchRow&) = nullptr);
 
-// The rows as an aligned text table, and as a JSON document.
-std::string FormatBenchTable(const std::vector<BenchRow>& rows);
-std::string FormatBenchJson(const std::vector<BenchRow>& rows);
+// The machine's rows for `threads` (> 1; a count of 1 has nothing to compare), each probe timed
+// for `min_seconds` on one thread and on `threads`.
+std::vector<MachineRow> MeasureMachine(const std::string& when, int threads, double min_seconds);
+
+// The report as aligned text tables (the kernels', then the machine's), and as a JSON document.
+std::string FormatBenchTable(const BenchReport& report);
+std::string FormatBenchJson(const BenchReport& report);
 
 }  // namespace transient::tools
