@@ -4,19 +4,21 @@
 // pixel at a time:
 // 1. per block of kRangeBlock pixels, the denominator's cosine series (thesis eq. 8.4) and
 //    p = conj(q) as planes, one SIMD lane per pixel;
-// 2. per pixel, its search grid from shared cos/sin tables (one SIMD lane per phase; four
-//    phases a lane where they form orbits, RangeTables), and its local minima, found as set
-//    bits, listed for the block;
-// 3. Newton's method on the derivative of the series, one lane per grid minimum of the list,
-//    masked per lane exactly as RefineMinimum of range.cc decides, in two vectors of eight or
-//    four minima (kernels_simd.h) whose steps interleave. No sine or cosine is called: the phase is
-//    the grid phase (tabled) plus an offset of at most one bin, and e^{i offset} is its Taylor
-//    polynomial;
+// 2. for eight or four pixels at a time (kernels_simd.h), one pixel per SIMD lane, their search
+//    grids from shared cos/sin tables (four phases from each orbit of the cosines, RangeTables)
+//    and their local minima, each lane's in slots in the order of their bins (at most m);
+// 3. Newton's method on the derivative of the series, slot by slot, masked per lane exactly as
+//    RefineMinimum of range.cc decides, two slots side by side (their steps interleave). No
+//    sine or cosine is called: the phase is the grid phase (tabled) plus an offset of at most
+//    one bin, and e^{i offset} is its Taylor polynomial;
 // 4. per pixel, the first return by MeseFirstReturn (range.cc): the first peak whose density
 //    is at least `threshold` times the highest, or whose light is at least `threshold` times
 //    the brightest peak's where it stands apart. Every grid minimum is refined: the brightest
-//    peak's light needs them all. One lane per pixel where the density decides (ChoosePeaks),
-//    the scalar rule (ChoosePeak) where a peak might pass by its light.
+//    peak's light needs them all. In the lanes where the density decides (ChoosePeaks), the
+//    scalar rule (ChoosePeak) where a peak might pass by its light.
+// With the pixels in lanes, a pixel's coefficients are each a lane of vectors loaded once, and
+// its minima and peaks stay in its lane: nothing is gathered per minimum but its bin's phase.
+// A pixel with more grid minima than m (rounding on a flat series) takes the reference's path.
 // Grids coarser than kMaxRotation per bin (fewer than 26 phases) take the per-pixel path.
 #include <algorithm>
 #include <array>
@@ -105,7 +107,7 @@ RangeTables MakeRangeTables(int m, int bins) {
   return t;
 }
 
-// Vectors of grid minima refined side by side (RefineGroups).
+// Slots of grid minima refined side by side (RefineSlots).
 constexpr int kRefineGroups = 2;
 
 // Per-thread working memory, reused from block to block.
@@ -113,39 +115,16 @@ struct RangeScratch {
   // Planes of kRangeBlock lanes: a_0, Re and Im of a_k for k = 1..m, Re and Im of
   // p_j = conj(q_j) for j = 0..m.
   std::vector<double> planes;
-  // Each lane's grid (grid_stride values a lane): the valleys between its peaks (step 4).
-  int grid_stride = 0;
+  // The grids of the pixels searched together, one a lane: grid value i of lane l at
+  // i * lanes + l (GridOfPixels).
   std::vector<double> grid;
-  // The series at the four phases of each orbit n = 0..quarter (RangeTables): n h, pi + n h,
-  // -n h and pi - n h, orbit_stride values each.
-  std::vector<double> orbit;
-  std::vector<uint8_t> minimum;  // bins, rounded up to 8 with zeros
-  // The grid minima of the block in the order of their lanes and bins, those of lane l in
-  // [lane_begin[l], lane_begin[l + 1]): bin, the three grid values around it, and once refined
-  // the phase, |p|^2 and light (padded by the vectors refined side by side).
-  int minima = 0;
-  std::vector<int32_t> minimum_lane, minimum_bin;
-  std::vector<double> minimum_left, minimum_middle, minimum_right;
-  std::vector<double> minimum_phase, minimum_denominator, minimum_light;
-  std::array<int32_t, kRangeBlock + 1> lane_begin;
+  // One pixel's grid values, for the valleys between its peaks (ChoosePeak).
+  std::vector<double> valley;
   void Reserve(int m, const RangeTables& t) {
     const size_t planes_per_pixel = static_cast<size_t>(1 + 2 * m + 2 * (m + 1));
     planes.resize(planes_per_pixel * kRangeBlock);
-    minimum.assign((t.bins + 7) / 8 * 8, 0);
-    // Past stride: not minima (read as whole vectors of bins, masked).
-    grid_stride = static_cast<int>(std::max<size_t>(t.stride, minimum.size() + 2) + 7) / 8 * 8;
-    grid.resize(static_cast<size_t>(grid_stride) * kRangeBlock);
-    orbit.resize(4 * static_cast<size_t>(t.orbit_stride));
-    // A lane has at most bins/2 grid minima: two neighbours cannot both be one.
-    const size_t most =
-        static_cast<size_t>(kRangeBlock) * (t.bins / 2 + 1) + kRefineGroups * simd::kMaxLanes;
-    if (minimum_lane.size() < most) {
-      for (auto* v : {&minimum_lane, &minimum_bin}) v->resize(most);
-      for (auto* v : {&minimum_left, &minimum_middle, &minimum_right, &minimum_phase,
-                      &minimum_denominator, &minimum_light}) {
-        v->resize(most);
-      }
-    }
+    grid.resize(static_cast<size_t>(t.bins + 2) * simd::kMaxLanes);
+    valley.resize(t.bins);
   }
 };
 
@@ -211,21 +190,24 @@ __attribute__((always_inline)) inline void LoadBlock(const SolvedImage& solved, 
   }
 }
 
-// Step 4 for lane l over its refined minima: MeseFirstReturn, with the lane's grid for the
-// valleys (grid value i + 1 is bin i's), for the pixels that ChoosePeaks cannot decide in
-// vectors. Scalar and the same for every order and instruction set: one copy, called from the
-// clones rather than inlined into each.
-__attribute__((noinline)) double ChoosePeak(const RangeTables& t, double threshold, int l,
-                                            const RangeScratch& s) {
+// Step 4 for one pixel over its `count` refined minima: MeseFirstReturn, with the pixel's grid
+// for the valleys, for the pixels that ChoosePeaks cannot decide in vectors. Its values lie
+// `stride` apart: minimum i's bin, phase, |p|^2 and light at [i * stride], bin n's grid value at
+// grid[(n + 1) * stride]. Scalar and the same for every order and instruction set: one copy,
+// called from the clones rather than inlined into each.
+__attribute__((noinline)) double ChoosePeak(const RangeTables& t, double threshold, int count,
+                                            const int32_t* bin, const double* phase,
+                                            const double* denominator, const double* light,
+                                            const double* grid, int stride, RangeScratch& s) {
   absl::InlinedVector<MesePeak, kMaxOrder> peaks;
-  for (int i = s.lane_begin[l]; i < s.lane_begin[l + 1]; ++i) {
+  for (int i = 0; i < count; ++i) {
     // Not above 0: only underflow, D would be infinite; not a peak (as the reference).
-    if (!(s.minimum_denominator[i] > 0.0)) continue;
-    peaks.push_back({OrderingPhase(s.minimum_phase[i]), s.minimum_denominator[i],
-                     s.minimum_light[i], s.minimum_bin[i]});
+    const double d = denominator[i * stride];
+    if (!(d > 0.0)) continue;
+    peaks.push_back({OrderingPhase(phase[i * stride]), d, light[i * stride], bin[i * stride]});
   }
-  const double* grid = s.grid.data() + static_cast<size_t>(l) * s.grid_stride + 1;
-  return MeseFirstReturn(peaks, threshold, std::span<const double>(grid, t.bins));
+  for (int n = 0; n < t.bins; ++n) s.valley[n] = grid[(n + 1) * stride];
+  return MeseFirstReturn(peaks, threshold, std::span<const double>(s.valley.data(), t.bins));
 }
 
 // The orders compiled (each costs compile time, ~10 s at m = 16 per instruction set): every

@@ -523,6 +523,40 @@ TEST_P(Kernels, RangeWithinATenthOfAMillimetreWithIdenticalFlags) {
   }
 }
 
+TEST_P(Kernels, RangeOfASeriesThatOverflowsIsTheReferences) {
+  // q_0 = q_1 = 1e154: the denominator's series has a_0 = 2e308, past the largest double, so the
+  // optimized kernel's grid (from the series) is infinite or NaN, while the reference's (from
+  // |p|^2, finite near phi = pi, where p vanishes) has a minimum there. Such a pixel must take
+  // the reference's path and find its peak; a NaN pixel must stay without a return.
+  const int m = GetParam();
+  SolvedImage solved = reference::Solve(RandomFrame(m, 450 + m), SolveOptions{});
+  const int64_t pixels = kGeometry.pixel_count();
+  for (int j = 0; j <= m; ++j) {
+    for (int64_t p : {int64_t{0}, int64_t{9}, pixels - 1}) {
+      solved.q_real[j * pixels + p] = j <= 1 ? 1e154 : 0.0;
+      solved.q_imag[j * pixels + p] = 0.0;
+    }
+    solved.q_real[j * pixels + 5] = std::numeric_limits<double>::quiet_NaN();
+  }
+  std::vector<float> expected(pixels), got(pixels);
+  std::vector<uint8_t> expected_flags = solved.flags, got_flags = solved.flags;
+  reference::MeseRange(solved, RangeOptions{}, expected, expected_flags);
+  optimized::MeseRange(solved, RangeOptions{}, got, got_flags);
+  EXPECT_EQ(got_flags, expected_flags);
+  for (int64_t p : {int64_t{0}, int64_t{9}, pixels - 1}) {
+    ASSERT_FALSE(std::isnan(expected[p])) << "the reference finds the peak at pi";
+    EXPECT_EQ(got[p], expected[p]) << p;
+  }
+  EXPECT_TRUE(std::isnan(got[5]));
+  for (int64_t p = 0; p < pixels; ++p) {
+    if (std::isnan(expected[p])) {
+      EXPECT_TRUE(std::isnan(got[p])) << p;
+    } else {
+      EXPECT_NEAR(got[p], expected[p], kRangeTolerance) << "pixel " << p;
+    }
+  }
+}
+
 TEST_P(Kernels, ResultsDoNotDependOnTheThreadCount) {
   const int m = GetParam();
   const MomentImage image = RandomFrame(m, 500 + m);
