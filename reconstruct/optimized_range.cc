@@ -173,6 +173,15 @@ __attribute__((always_inline)) inline void LoadBlock(const SolvedImage& solved, 
     const double* qi = solved.q_imag.data() + j * pixels + begin;
     double* pr = b.pr + j * kRangeBlock;
     double* pi = b.pi + j * kRangeBlock;
+    if (count == kRangeBlock) {
+      // (Apart, the whole block's copy: the masked loop below ran as 5 % of the kernel.)
+#pragma omp simd
+      for (int l = 0; l < kRangeBlock; ++l) {
+        pr[l] = qr[l];
+        pi[l] = -qi[l];
+      }
+      continue;
+    }
 #pragma omp simd
     for (int l = 0; l < kRangeBlock; ++l) {
       pr[l] = l < count ? qr[l] : 0.0;
