@@ -69,12 +69,11 @@ void OnThreads(int threads, const std::function<void(int)>& work) {
 // Sixteen independent chains of multiply-adds kept in registers (enough to keep the units busy
 // whatever their latency); nothing is read or written in the loop. Returns their sum, so that
 // the compiler keeps the loop.
-// (About 10 ms a call on one thread of a 2026 server core: the threads' start is under 1 % of it.)
-constexpr int kChains = 16, kChainSteps = 1 << 23;
-double MultiplyAddChains() {
+constexpr int kChains = 16;
+double MultiplyAddChains(int steps) {
   double x[kChains];
   for (int i = 0; i < kChains; ++i) x[i] = i;
-  for (int n = 0; n < kChainSteps; ++n) {
+  for (int n = 0; n < steps; ++n) {
     for (int i = 0; i < kChains; ++i) x[i] = x[i] * 0.999999 + 1e-7;
   }
   double sum = 0.0;
@@ -92,13 +91,14 @@ double MachineRate(int threads, double units_per_thread, double min_seconds,
 
 }  // namespace
 
-std::vector<MachineRow> MeasureMachine(const std::string& when, int threads, double min_seconds) {
+std::vector<MachineRow> MeasureMachine(const std::string& when, int threads, double min_seconds,
+                                       const MachineWork& work) {
   std::vector<MachineRow> rows;
   if (threads < 2) return rows;
   {
     std::vector<double> sums(threads);
-    const auto probe = [&](int t, int) { sums[t] = MultiplyAddChains(); };
-    const double per_thread = static_cast<double>(kChains) * kChainSteps;
+    const auto probe = [&](int t, int) { sums[t] = MultiplyAddChains(work.chain_steps); };
+    const double per_thread = static_cast<double>(kChains) * work.chain_steps;
     rows.push_back({.probe = "multiply-adds in registers",
                     .when = when,
                     .threads = threads,
@@ -109,18 +109,17 @@ std::vector<MachineRow> MeasureMachine(const std::string& when, int threads, dou
     for (double sum : sums) sink = sink + sum;
   }
   {
-    // 64 MiB, larger than the caches, written once before timing (no page faults in the loop);
-    // each thread stores its own part, the whole buffer kPasses times a call.
-    constexpr int kPasses = 8;
-    std::vector<float> buffer(size_t{16} << 20, 0.0f);
+    // Written once before timing (no page faults in the loop); each thread stores its own part,
+    // the whole buffer `passes` times a call.
+    std::vector<float> buffer(work.buffer_floats, 0.0f);
     const auto probe = [&](int t, int count) {
       const size_t part = buffer.size() / count;
       const auto begin = buffer.begin() + t * part;
-      for (int pass = 0; pass < kPasses; ++pass) {
+      for (int pass = 0; pass < work.passes; ++pass) {
         std::fill(begin, t + 1 == count ? buffer.end() : begin + part, static_cast<float>(pass));
       }
     };
-    const double bytes = static_cast<double>(buffer.size() * sizeof(float)) * kPasses;
+    const double bytes = static_cast<double>(buffer.size() * sizeof(float)) * work.passes;
     rows.push_back({.probe = "stores to memory",
                     .when = when,
                     .threads = threads,

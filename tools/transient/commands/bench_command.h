@@ -57,9 +57,18 @@ MomentImage MakeBenchFrame(ImageGeometry geometry, int m);
 absl::StatusOr<BenchReport> RunBench(const BenchArgs& args,
                                      void (*progress)(const BenchRow&) = nullptr);
 
+// The probes' work per call: long enough that starting the threads is under 1 % of it (about
+// 10 ms a call on one thread of a 2026 server core); the tests ask for less.
+struct MachineWork {
+  int chain_steps = 1 << 23;                // steps of each of the sixteen multiply-add chains
+  size_t buffer_floats = size_t{16} << 20;  // 64 MiB, larger than the caches
+  int passes = 8;                           // over the buffer
+};
+
 // The machine's rows for `threads` (> 1; a count of 1 has nothing to compare), each probe timed
 // for `min_seconds` on one thread and on `threads`.
-std::vector<MachineRow> MeasureMachine(const std::string& when, int threads, double min_seconds);
+std::vector<MachineRow> MeasureMachine(const std::string& when, int threads, double min_seconds,
+                                       const MachineWork& work = {});
 
 // The report as aligned text tables (the kernels', then the machine's), and as a JSON document.
 std::string FormatBenchTable(const BenchReport& report);
