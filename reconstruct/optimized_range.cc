@@ -18,7 +18,8 @@
 //    scalar rule (ChoosePeak) where a peak might pass by its light.
 // With the pixels in lanes, a pixel's coefficients are each a lane of vectors loaded once, and
 // its minima and peaks stay in its lane: nothing is gathered per minimum but its bin's phase.
-// A pixel with more grid minima than m (rounding on a flat series) takes the reference's path.
+// A pixel with more grid minima than m (rounding on a flat series) or whose grid is not finite
+// takes the reference's path, whatever the padded order its lanes run at.
 // Grids coarser than kMaxRotation per bin (fewer than 26 phases) take the per-pixel path.
 #include <algorithm>
 #include <array>
@@ -57,14 +58,14 @@ constexpr double kMaxRotation = 0.25;
 // When bins is a multiple of 4 (the automatic 16 (m+1) always is), only the quarter
 // n = 0..bins/4 is tabled (rows of orbit_stride): the phases n h, -n h, pi + n h and pi - n h
 // share their cosines and sines up to sign (cos k(pi + phi) = (-1)^k cos k phi), so the
-// series' even and odd terms at n h give all four (GridByOrbits), as the density's orbits do.
+// series' even and odd terms at n h give all four (GridOfPixels), as the density's orbits do.
 struct RangeTables {
   int bins = 0;
-  int stride = 0;  // bins + 2, rounded up to a whole vector, plus one vector
+  int stride = 0;  // of c2 and s2's rows: bins + 2
   double h = 0.0;
   std::vector<double> c2, s2;
   int quarter = 0;       // bins / 4 where bins is a multiple of 4, else 0 (c2, s2 instead)
-  int orbit_stride = 0;  // quarter + 1, rounded up to a whole vector
+  int orbit_stride = 0;  // of cq and sq's rows: quarter + 1
   std::vector<double> cq, sq;
   std::vector<double> phase_n, cos_n, sin_n;  // n h and e^{i n h}, n = 0..bins-1
 };
@@ -72,7 +73,7 @@ struct RangeTables {
 RangeTables MakeRangeTables(int m, int bins) {
   RangeTables t;
   t.bins = bins;
-  t.stride = (bins + 2 + 7) / 8 * 8 + 8;  // whole vectors, and one more for the last search
+  t.stride = bins + 2;
   t.h = kTwoPi / bins;
   t.phase_n.resize(bins);
   t.cos_n.resize(bins);
@@ -84,7 +85,7 @@ RangeTables MakeRangeTables(int m, int bins) {
   }
   if (bins % 4 == 0) {
     t.quarter = bins / 4;
-    t.orbit_stride = (t.quarter + 1 + 7) / 8 * 8;
+    t.orbit_stride = t.quarter + 1;
     t.cq.assign(static_cast<size_t>(t.orbit_stride) * m, 0.0);
     t.sq.assign(t.cq.size(), 0.0);
     for (int n = 0; n <= t.quarter; ++n) {
@@ -154,9 +155,10 @@ __attribute__((always_inline)) inline Planes<M> PlanesIn(double* storage, int wi
 }
 
 // Step 1: the series a_k = sum_j conj(q_{j+k}) q_j and p = conj(q) of pixels [begin, end);
-// lanes past the end and invalid pixels get a_0 = NaN and are skipped. M >= the image's order
-// m: q_j = 0 for j > m, so a_k = 0 for k > m, and every sum of the later steps adds exact
-// zeros — the results are those of M = m (PaddedOrder).
+// lanes past the end and invalid pixels get a_0 = NaN: their grids are not finite, so they
+// take the reference's path (FindMinima), which leaves an invalid pixel without a range. M >= the
+// image's order m: q_j = 0 for j > m, so a_k = 0 for k > m, and every sum of the later steps adds
+// exact zeros — the results are those of M = m (PaddedOrder).
 template <int M>
 __attribute__((always_inline)) inline void LoadBlock(const SolvedImage& solved, int64_t begin,
                                                      int64_t end, const Planes<M>& b) {

@@ -58,27 +58,36 @@ void Measure(const BenchArgs& args, const std::string& kernel, int m, ImageGeome
   SetKernelOptions({});
 }
 
-// `work(t)` for t = 0..threads-1, each on its own thread (t = 0 on the caller's).
+// `work(t)` for t = 0..threads-1, each on its own thread (t = 0 on the caller's); the threads
+// are joined however `work` or a thread's start ends.
 void OnThreads(int threads, const std::function<void(int)>& work) {
-  std::vector<std::thread> others;
+  std::vector<std::jthread> others;
   for (int t = 1; t < threads; ++t) others.emplace_back(work, t);
   work(0);
-  for (std::thread& thread : others) thread.join();
 }
 
-// Sixteen independent chains of multiply-adds kept in registers (enough to keep the units busy
-// whatever their latency); nothing is read or written in the loop. Returns their sum, so that
-// the compiler keeps the loop.
+// Sixteen independent chains of multiply-adds, two to a variable of two doubles (an SSE2
+// register, the tool's instruction set): enough to keep the units busy whatever their latency,
+// and nothing read or written in the loop (an array of sixteen doubles was loaded and stored at
+// every step at -O2). Returns their sum, so that the compiler keeps the loop.
 constexpr int kChains = 16;
 double MultiplyAddChains(int steps) {
-  double x[kChains];
-  for (int i = 0; i < kChains; ++i) x[i] = i;
+  using Pair = double __attribute__((vector_size(2 * sizeof(double))));
+  Pair x0 = {0, 1}, x1 = {2, 3}, x2 = {4, 5}, x3 = {6, 7};
+  Pair x4 = {8, 9}, x5 = {10, 11}, x6 = {12, 13}, x7 = {14, 15};
+  const Pair a = {0.999999, 0.999999}, b = {1e-7, 1e-7};
   for (int n = 0; n < steps; ++n) {
-    for (int i = 0; i < kChains; ++i) x[i] = x[i] * 0.999999 + 1e-7;
+    x0 = x0 * a + b;
+    x1 = x1 * a + b;
+    x2 = x2 * a + b;
+    x3 = x3 * a + b;
+    x4 = x4 * a + b;
+    x5 = x5 * a + b;
+    x6 = x6 * a + b;
+    x7 = x7 * a + b;
   }
-  double sum = 0.0;
-  for (int i = 0; i < kChains; ++i) sum += x[i];
-  return sum;
+  const Pair sum = ((x0 + x1) + (x2 + x3)) + ((x4 + x5) + (x6 + x7));
+  return sum[0] + sum[1];
 }
 
 // Units per second of `probe(t, threads)` run on `threads` threads at once.
@@ -120,7 +129,8 @@ std::vector<MachineRow> MeasureMachine(const std::string& when, int threads, dou
       }
     };
     const double bytes = static_cast<double>(buffer.size() * sizeof(float)) * work.passes;
-    rows.push_back({.probe = "stores to memory",
+    rows.push_back({.probe = absl::StrCat("stores to a ", work.buffer_floats * sizeof(float) >> 20,
+                                          " MiB buffer"),
                     .when = when,
                     .threads = threads,
                     .unit = "bytes/s",

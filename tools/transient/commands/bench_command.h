@@ -31,11 +31,12 @@ struct BenchRow {
 };
 
 // What the machine itself gives more threads, by two loops that share nothing between threads:
-// multiply-adds in registers, and plain stores to memory (each thread its own part of a buffer
-// larger than the caches). Their ratio bounds a kernel's own ratio from one thread to more: a
-// virtual machine's second core may be busy with another guest, and stores share the memory.
+// multiply-adds in registers, and plain stores to a buffer (each thread its own part). Their
+// ratios from one thread to more show what the machine gave a second thread in those seconds,
+// against which a kernel's own ratio can be read: a virtual machine's second core may be busy
+// with another guest, and stores share the caches and the memory.
 struct MachineRow {
-  std::string probe;  // e.g. "multiply-adds in registers"
+  std::string probe;  // e.g. "multiply-adds in registers", "stores to a 64 MiB buffer"
   std::string when;   // "start" or "end" of the run
   int threads = 0;
   std::string unit;                              // what the rates count per second
@@ -61,7 +62,7 @@ absl::StatusOr<BenchReport> RunBench(const BenchArgs& args,
 // 10 ms a call on one thread of a 2026 server core); the tests ask for less.
 struct MachineWork {
   int chain_steps = 1 << 23;                // steps of each of the sixteen multiply-add chains
-  size_t buffer_floats = size_t{16} << 20;  // 64 MiB, larger than the caches
+  size_t buffer_floats = size_t{16} << 20;  // 64 MiB: larger than most L3 caches
   int passes = 8;                           // over the buffer
 };
 
