@@ -495,6 +495,32 @@ TEST_P(Kernels, PisarenkoMeetsTheAccuracyContract) {
   }
 }
 
+// The reference's and the optimized kernel's ranges and flags of one image.
+struct Ranges {
+  std::vector<float> expected, got;
+  std::vector<uint8_t> expected_flags, got_flags;
+};
+Ranges RangesBothWays(const SolvedImage& solved, const RangeOptions& options) {
+  const size_t pixels = static_cast<size_t>(solved.geometry.pixel_count());
+  Ranges r{std::vector<float>(pixels), std::vector<float>(pixels), solved.flags, solved.flags};
+  reference::MeseRange(solved, options, r.expected, r.expected_flags);
+  optimized::MeseRange(solved, options, r.got, r.got_flags);
+  return r;
+}
+
+// The range contract on every pixel: identical flags, no range where the reference has none,
+// else within kRangeTolerance.
+void ExpectRangesWithinContract(const Ranges& r, const std::string& context) {
+  EXPECT_EQ(r.got_flags, r.expected_flags) << context;
+  for (size_t p = 0; p < r.expected.size(); ++p) {
+    if (std::isnan(r.expected[p])) {
+      EXPECT_TRUE(std::isnan(r.got[p])) << "pixel " << p << ", " << context;
+    } else {
+      EXPECT_NEAR(r.got[p], r.expected[p], kRangeTolerance) << "pixel " << p << ", " << context;
+    }
+  }
+}
+
 TEST_P(Kernels, RangeWithinATenthOfAMillimetreWithIdenticalFlags) {
   const int m = GetParam();
   const SolvedImage solved = reference::Solve(RandomFrame(m, 400 + m), SolveOptions{});
@@ -509,19 +535,8 @@ TEST_P(Kernels, RangeWithinATenthOfAMillimetreWithIdenticalFlags) {
     RangeOptions options;
     options.threshold = threshold;
     options.search_bins = bins;
-    std::vector<float> expected(pixels), got(pixels);
-    std::vector<uint8_t> expected_flags = solved.flags, got_flags = solved.flags;
-    reference::MeseRange(solved, options, expected, expected_flags);
-    optimized::MeseRange(solved, options, got, got_flags);
-    EXPECT_EQ(got_flags, expected_flags);
-    for (int64_t p = 0; p < pixels; ++p) {
-      if (std::isnan(expected[p])) {
-        EXPECT_TRUE(std::isnan(got[p])) << p;
-      } else {
-        EXPECT_NEAR(got[p], expected[p], kRangeTolerance)
-            << "pixel " << p << " m = " << m << " bins " << bins;
-      }
-    }
+    ExpectRangesWithinContract(RangesBothWays(solved, options),
+                               absl::StrCat("m = ", m, ", bins ", bins));
   }
 }
 
@@ -540,23 +555,13 @@ TEST_P(Kernels, RangeOfASeriesThatOverflowsIsTheReferences) {
     }
     solved.q_real[j * pixels + 5] = std::numeric_limits<double>::quiet_NaN();
   }
-  std::vector<float> expected(pixels), got(pixels);
-  std::vector<uint8_t> expected_flags = solved.flags, got_flags = solved.flags;
-  reference::MeseRange(solved, RangeOptions{}, expected, expected_flags);
-  optimized::MeseRange(solved, RangeOptions{}, got, got_flags);
-  EXPECT_EQ(got_flags, expected_flags);
+  const Ranges r = RangesBothWays(solved, RangeOptions{});
   for (int64_t p : {int64_t{0}, int64_t{9}, pixels - 1}) {
-    ASSERT_FALSE(std::isnan(expected[p])) << "the reference finds the peak at pi";
-    EXPECT_EQ(got[p], expected[p]) << p;
+    ASSERT_FALSE(std::isnan(r.expected[p])) << "the reference finds the peak at pi";
+    EXPECT_EQ(r.got[p], r.expected[p]) << p;
   }
-  EXPECT_TRUE(std::isnan(got[5]));
-  for (int64_t p = 0; p < pixels; ++p) {
-    if (std::isnan(expected[p])) {
-      EXPECT_TRUE(std::isnan(got[p])) << p;
-    } else {
-      EXPECT_NEAR(got[p], expected[p], kRangeTolerance) << "pixel " << p;
-    }
-  }
+  EXPECT_TRUE(std::isnan(r.got[5]));
+  ExpectRangesWithinContract(r, absl::StrCat("m = ", m));
 }
 
 TEST(RangeKernel, APixelWithMoreGridMinimaThanItsOrderIsTheReferencesInEveryBuild) {
@@ -573,15 +578,12 @@ TEST(RangeKernel, APixelWithMoreGridMinimaThanItsOrderIsTheReferencesInEveryBuil
     solved.q_real[pixels + p] = 4.94e-17;
     solved.q_imag[pixels + p] = -9.75e-17;
   }
-  std::vector<float> expected(pixels), got(pixels);
-  std::vector<uint8_t> expected_flags = solved.flags, got_flags = solved.flags;
-  reference::MeseRange(solved, RangeOptions{}, expected, expected_flags);
-  optimized::MeseRange(solved, RangeOptions{}, got, got_flags);
+  const Ranges r = RangesBothWays(solved, RangeOptions{});
   for (int64_t p : {int64_t{2}, int64_t{17}}) {
-    EXPECT_EQ(got_flags[p], expected_flags[p]) << p;
-    EXPECT_EQ(std::isnan(got[p]), std::isnan(expected[p])) << p;
-    if (!std::isnan(expected[p])) {
-      EXPECT_EQ(got[p], expected[p]) << p;
+    EXPECT_EQ(r.got_flags[p], r.expected_flags[p]) << p;
+    EXPECT_EQ(std::isnan(r.got[p]), std::isnan(r.expected[p])) << p;
+    if (!std::isnan(r.expected[p])) {
+      EXPECT_EQ(r.got[p], r.expected[p]) << p;
     }
   }
 }
