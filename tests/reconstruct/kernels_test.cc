@@ -524,10 +524,9 @@ void ExpectRangesWithinContract(const Ranges& r, const std::string& context) {
 TEST_P(Kernels, RangeWithinATenthOfAMillimetreWithIdenticalFlags) {
   const int m = GetParam();
   const SolvedImage solved = reference::Solve(RandomFrame(m, 400 + m), SolveOptions{});
-  const int64_t pixels = kGeometry.pixel_count();
   // Automatic grids (16 (m+1) phases, a multiple of 4: by orbits in the optimized kernel), one
   // that is a multiple of 4 but not of 8 (by orbits, 26 base phases), the coarsest by orbits (a
-  // quarter of 7 bins: the reversed runs read before their rows), one that is not a multiple of 4
+  // quarter of 7 bins), one that is not a multiple of 4
   // (by phases) and one coarse enough for the per-pixel path of the optimized kernel.
   const std::pair<double, int> cases[] = {{0.0, 0},   {0.1, 0},  {0.5, 0},   {1.0, 0},
                                           {0.1, 100}, {0.1, 28}, {0.1, 101}, {0.1, 20}};
