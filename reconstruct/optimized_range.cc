@@ -14,8 +14,9 @@
 // 4. per pixel, the first return by MeseFirstReturn (range.cc): the first peak whose density
 //    is at least `threshold` times the highest, or whose light is at least `threshold` times
 //    the brightest peak's where it stands apart. Every grid minimum is refined: the brightest
-//    peak's light needs them all. In the lanes where the density decides (ChoosePeaks), the
-//    scalar rule (ChoosePeak) where a peak might pass by its light.
+//    peak's light needs them all. In the lanes (ChoosePeaks), the valleys between peaks read
+//    at the grid's crests, found from the bits of FindMinima only where a peak may pass by its
+//    light; the scalar rule (ChoosePeak) only for a pixel with a minimum that is not a peak.
 // With the pixels in lanes, a pixel's coefficients are each a lane of vectors loaded once, and
 // its minima and peaks stay in its lane: nothing is gathered per minimum but its bin's phase.
 // A pixel with more grid minima than m (rounding on a flat series) or whose grid is not finite
@@ -119,12 +120,15 @@ struct RangeScratch {
   // The grids of the pixels searched together, one a lane: grid value i of lane l at
   // i * lanes + l (GridOfPixels).
   std::vector<double> grid;
+  // The grids' crests as bits, word w of lane l at [w * lanes + l] (FindMinima).
+  std::vector<uint64_t> crests;
   // One pixel's grid values, for the valleys between its peaks (ChoosePeak).
   std::vector<double> valley;
   void Reserve(int m, const RangeTables& t) {
     const size_t planes_per_pixel = static_cast<size_t>(1 + 2 * m + 2 * (m + 1));
     planes.resize(planes_per_pixel * kRangeBlock);
     grid.resize(static_cast<size_t>(t.bins + 2) * simd::kMaxLanes);
+    crests.resize(static_cast<size_t>(t.bins + 63) / 64 * simd::kMaxLanes);
     valley.resize(t.bins);
   }
 };
@@ -196,10 +200,10 @@ __attribute__((always_inline)) inline void LoadBlock(const SolvedImage& solved, 
 }
 
 // Step 4 for one pixel over its `count` refined minima: MeseFirstReturn, with the pixel's grid
-// for the valleys, for the pixels that ChoosePeaks cannot decide in vectors. Its values lie
-// `stride` apart: minimum i's bin, phase, |p|^2 and light at [i * stride], bin n's grid value at
-// grid[(n + 1) * stride]. Scalar and the same for every order and instruction set: one copy,
-// called from the clones rather than inlined into each.
+// for the valleys, for the pixels that ChoosePeaks cannot decide in vectors (a minimum that is
+// not a peak). Its values lie `stride` apart: minimum i's bin, phase, |p|^2 and light at
+// [i * stride], bin n's grid value at grid[(n + 1) * stride]. Scalar and the same for every
+// order and instruction set: one copy, called from the clones rather than inlined into each.
 __attribute__((noinline)) double ChoosePeak(const RangeTables& t, double threshold, int count,
                                             const int32_t* bin, const double* phase,
                                             const double* denominator, const double* light,
