@@ -30,19 +30,8 @@ inline double LogNorm(Complex w) {
 }
 inline double ArgOfRight(Complex w) { return std::atan(w.imag() / w.real()); }  // Re w > 0
 
-// a / b by Smith's algorithm (scaled by the larger part of b, so that no square overflows),
-// and |w|^2, in real arithmetic: std::complex's division calls __divdc3 (C's Annex G handling of
-// infinities) and its abs hypot, and Init called them per root and pair of roots: with
-// std::pow, most of `transient reconstruct`'s time (perf, 640 x 480, m = 4).
-inline Complex Divide(Complex a, Complex b) {
-  if (std::abs(b.real()) >= std::abs(b.imag())) {
-    const double r = b.imag() / b.real(), d = b.real() + b.imag() * r;
-    return {(a.real() + a.imag() * r) / d, (a.imag() - a.real() * r) / d};
-  }
-  const double r = b.real() / b.imag(), d = b.imag() + b.real() * r;
-  return {(a.real() * r + a.imag()) / d, (a.imag() * r - a.real()) / d};
-}
-inline double SquaredNorm(Complex w) { return w.real() * w.real() + w.imag() * w.imag(); }
+using internal::Divide;
+using internal::SquaredNorm;
 inline bool Finite(Complex w) { return std::isfinite(w.real()) && std::isfinite(w.imag()); }
 
 }  // namespace

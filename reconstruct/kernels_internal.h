@@ -85,6 +85,23 @@ inline std::complex<double> Power(std::complex<double> x, int n) {
   return result;
 }
 
+// a / b by Smith's algorithm (scaled by the larger part of b, so that no square overflows), in
+// real arithmetic: std::complex's division calls __divdc3 (C's Annex G handling of infinities),
+// which cost more than the arithmetic around it in the cumulative's Init and InverseLevinson.
+inline std::complex<double> Divide(std::complex<double> a, std::complex<double> b) {
+  if (std::abs(b.real()) >= std::abs(b.imag())) {
+    const double r = b.imag() / b.real(), d = b.real() + b.imag() * r;
+    return {(a.real() + a.imag() * r) / d, (a.imag() - a.real() * r) / d};
+  }
+  const double r = b.real() / b.imag(), d = b.imag() + b.real() * r;
+  return {(a.real() * r + a.imag()) / d, (a.imag() * r - a.real()) / d};
+}
+
+// |w|^2 as re^2 + im^2 (std::norm squares std::abs, a hypot call).
+inline double SquaredNorm(std::complex<double> w) {
+  return w.real() * w.real() + w.imag() * w.imag();
+}
+
 // UnwrapImage's outputs (phase_unwrapping.h), sized for the image and filled with NaN and 0.
 struct UnwrapOutputs {
   float* range_m;

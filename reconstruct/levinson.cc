@@ -8,6 +8,8 @@
 #include <limits>
 #include <utility>
 
+#include "kernels_internal.h"
+
 namespace transient {
 
 namespace {
@@ -157,7 +159,7 @@ void InverseLevinson(std::span<const Complex> q, std::span<Complex> c) {
     for (int j = 0; j <= l; ++j) lower[l][j] = current[l - j];
     if (l == 0) break;
     // p = (conj q_l, ..., conj q_0); undo one Levinson step: q^{(l-1)} = q^{(l)} - q_l/p_l * p.
-    const Complex ratio = current[l] / std::conj(current[0]);
+    const Complex ratio = internal::Divide(current[l], std::conj(current[0]));
     std::array<Complex, kMaxMoments> next;
     for (int j = 0; j < l; ++j) next[j] = current[j] - ratio * std::conj(current[l - j]);
     for (int j = 0; j < l; ++j) current[j] = next[j];
@@ -165,7 +167,7 @@ void InverseLevinson(std::span<const Complex> q, std::span<Complex> c) {
   for (int l = 0; l <= m; ++l) {
     Complex sum = (l == 0) ? Complex(1.0) : Complex(0.0);
     for (int j = 0; j < l; ++j) sum -= lower[l][j] * c[j];
-    c[l] = sum / lower[l][l];
+    c[l] = internal::Divide(sum, lower[l][l]);
   }
   c[0] = Complex(c[0].real(), 0.0);
 }
