@@ -31,7 +31,6 @@ inline double LogNorm(Complex w) {
 inline double ArgOfRight(Complex w) { return std::atan(w.imag() / w.real()); }  // Re w > 0
 
 using internal::Divide;
-using internal::SquaredNorm;
 inline bool Finite(Complex w) { return std::isfinite(w.real()) && std::isfinite(w.imag()); }
 
 }  // namespace
@@ -52,10 +51,10 @@ bool MeseCumulative::Init(std::span<const Complex> q, RootMethod method) {
   const int n = degree_;
   for (int l = 0; l < n; ++l) {
     for (int k = 0; k < l; ++k) {
-      // |x_l - x_k| >= kMinRootSeparation max(|x_l|, |x_k|), squared (roots past 1e154, whose
-      // squares overflow, give residues that overflow below).
-      const double scale = std::max(SquaredNorm(roots[l]), SquaredNorm(roots[k]));
-      if (!(SquaredNorm(roots[l] - roots[k]) >= kMinRootSeparation * kMinRootSeparation * scale)) {
+      // |x_l - x_k| >= kMinRootSeparation max(|x_l|, |x_k|), squared (std::norm, re^2 + im^2;
+      // roots past 1e154, whose squares overflow, give residues that overflow below).
+      const double scale = std::max(std::norm(roots[l]), std::norm(roots[k]));
+      if (!(std::norm(roots[l] - roots[k]) >= kMinRootSeparation * kMinRootSeparation * scale)) {
         return true;
       }
     }

@@ -97,11 +97,6 @@ inline std::complex<double> Divide(std::complex<double> a, std::complex<double> 
   return {(a.real() * r + a.imag()) / d, (a.imag() * r - a.real()) / d};
 }
 
-// |w|^2 as re^2 + im^2 (std::norm squares std::abs, a hypot call).
-inline double SquaredNorm(std::complex<double> w) {
-  return w.real() * w.real() + w.imag() * w.imag();
-}
-
 // UnwrapImage's outputs (phase_unwrapping.h), sized for the image and filled with NaN and 0.
 struct UnwrapOutputs {
   float* range_m;

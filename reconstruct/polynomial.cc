@@ -127,10 +127,10 @@ bool AberthRoots(std::span<const Complex> a, std::span<Complex> roots) {
       for (int k = 0; k < n; ++k) {
         roots[k] = Complex(zr[k], zi[k]);
         sum += roots[k];
-        size += std::sqrt(internal::SquaredNorm(roots[k]));
+        size += std::sqrt(std::norm(roots[k]));
       }
       const Complex miss = sum + internal::Divide(a[n - 1], a[n]);
-      return std::sqrt(internal::SquaredNorm(miss)) <= 1e-8 * size;
+      return std::sqrt(std::norm(miss)) <= 1e-8 * size;
     }
   }
   return false;
