@@ -641,7 +641,9 @@ TEST(RangeKernel, APeakThatMayPassByItsLightIsDecidedAsTheReferenceDoes) {
                      absl::StrCat(by_light, " by light, ", refused, " refused"));
       EXPECT_GE(by_light, pixels / 50) << "m = " << m << ", threshold " << threshold;
       // (At m = 8 the first return is resolved as a peak of its own nearly always.)
-      if (m <= 4) EXPECT_GE(refused, pixels / 50) << "m = " << m << ", threshold " << threshold;
+      if (m <= 4) {
+        EXPECT_GE(refused, pixels / 50) << "m = " << m << ", threshold " << threshold;
+      }
     }
   }
 }
