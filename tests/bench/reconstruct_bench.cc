@@ -91,8 +91,8 @@ void BM_CumulativeSlices(benchmark::State& state) {
 }
 BENCHMARK(BM_CumulativeSlices)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
-void BM_MeseRange(benchmark::State& state) {
-  const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
+// MESE range of `image`, solved once, with the kernels of the benchmark's arguments.
+void TimeMeseRange(benchmark::State& state, const MomentImage& image) {
   UseKernels(state);
   const SolvedImage solved = Solve(image, SolveOptions{});
   const int64_t pixels = image.geometry.pixel_count();
@@ -104,6 +104,10 @@ void BM_MeseRange(benchmark::State& state) {
   }
   state.counters["pixels/s"] = benchmark::Counter(static_cast<double>(state.iterations() * pixels),
                                                   benchmark::Counter::kIsRate);
+}
+
+void BM_MeseRange(benchmark::State& state) {
+  TimeMeseRange(state, MakeFrame(static_cast<int>(state.range(0))));
 }
 BENCHMARK(BM_MeseRange)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
@@ -143,24 +147,14 @@ absl::StatusOr<MomentImage> SimulatedFrame(int m) {
   return absl::InternalError("the simulator gave no complete cycle");
 }
 
-// MESE range (as BM_MeseRange) on SimulatedFrame.
+// MESE range on SimulatedFrame.
 void BM_MeseRangeSimulated(benchmark::State& state) {
   const absl::StatusOr<MomentImage> image = SimulatedFrame(static_cast<int>(state.range(0)));
   if (!image.ok()) {
     state.SkipWithError(std::string(image.status().message()).c_str());
     return;
   }
-  UseKernels(state);
-  const SolvedImage solved = Solve(*image, SolveOptions{});
-  const int64_t pixels = image->geometry.pixel_count();
-  std::vector<float> range(pixels);
-  std::vector<uint8_t> flags(pixels);
-  for (auto _ : state) {
-    MeseRange(solved, RangeOptions{}, range, flags);
-    benchmark::ClobberMemory();
-  }
-  state.counters["pixels/s"] = benchmark::Counter(static_cast<double>(state.iterations() * pixels),
-                                                  benchmark::Counter::kIsRate);
+  TimeMeseRange(state, *image);
 }
 BENCHMARK(BM_MeseRangeSimulated)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
