@@ -172,7 +172,7 @@ absl::StatusOr<CalibrationTable> EstimateCalibration(const MomentImage& dirac_at
     for (int j = 0; j <= m; ++j) {
       c[j] =
           Complex(dirac_at_zero.real_plane(j)[p], j == 0 ? 0.0f : dirac_at_zero.imag_plane(j)[p]);
-      finite = finite && std::isfinite(c[j].real()) && std::isfinite(c[j].imag());
+      finite = finite && IsFinite(c[j]);
     }
     if (!finite) continue;
     const double reference = measured ? c[0].real() : std::abs(c[lowest]);

@@ -31,7 +31,6 @@ inline double LogNorm(Complex w) {
 inline double ArgOfRight(Complex w) { return std::atan(w.imag() / w.real()); }  // Re w > 0
 
 using internal::Divide;
-inline bool Finite(Complex w) { return std::isfinite(w.real()) && std::isfinite(w.imag()); }
 
 }  // namespace
 
@@ -92,7 +91,7 @@ bool MeseCumulative::Init(std::span<const Complex> q, RootMethod method) {
     outer_pole_[l] = x;
     outer_coefficient_[l] = Divide(-outer_residue, x);
     inner_coefficient_[l] = Divide(-i * inner_residue, y);
-    if (!Finite(outer_coefficient_[l]) || !Finite(inner_coefficient_[l])) return true;
+    if (!IsFinite(outer_coefficient_[l]) || !IsFinite(inner_coefficient_[l])) return true;
     slope += outer_coefficient_[l];
   }
   // The linear term is D's mean c_0 / (2 pi). With degree 0, D = 1 / (2 pi q_0) is constant.

@@ -45,8 +45,6 @@ struct TimedReturn {
   double weight;
 };
 
-bool IsFinite(Complex z) { return std::isfinite(z.real()) && std::isfinite(z.imag()); }
-
 bool IsPositiveFrequency(double frequency_hz) {
   return std::isfinite(frequency_hz) && frequency_hz > 0.0;
 }

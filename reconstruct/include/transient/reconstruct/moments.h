@@ -14,6 +14,9 @@ namespace transient {
 
 using Complex = std::complex<double>;
 
+// Both parts finite (std::abs would call hypot to say the same).
+inline bool IsFinite(Complex z) { return std::isfinite(z.real()) && std::isfinite(z.imag()); }
+
 // The largest number of complex moments c_1..c_m that the core accepts (1 <= m <= kMaxOrder).
 inline constexpr int kMaxOrder = 16;
 inline constexpr int kMaxMoments = kMaxOrder + 1;
