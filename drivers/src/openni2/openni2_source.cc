@@ -3,6 +3,8 @@
 // the phase samples of a ToF camera, so the source declares a depth camera's schedule
 // (SamplingScheme::kDepth): the daemon serves depth, range, flags and moment depth maps of it
 // and refuses the transient products.
+#include "openni2/openni2_source.h"
+
 #include <OpenNI.h>
 
 #include <algorithm>
@@ -21,8 +23,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/time/clock.h"
-#include "openni2/openni2_source.h"
 #include "source_uri.h"
+#include "transient/openni2/close_device.h"
 #include "transient/openni2/oni_frames.h"
 
 namespace transient::openni2 {
@@ -116,15 +118,7 @@ class OpenNi2Source final : public CaptureSource {
  public:
   OpenNi2Source(std::string uri, Options options) : uri_(std::move(uri)), options_(options) {}
 
-  ~OpenNi2Source() override {
-    if (has_ir_) {
-      ir_.stop();
-      ir_.destroy();
-    }
-    depth_.stop();
-    depth_.destroy();
-    device_.close();
-  }
+  ~OpenNi2Source() override { CloseDevice(device_, {&depth_, &ir_}); }
 
   absl::Status Open() {
     if (absl::Status status = InitializeOpenNi(); !status.ok()) return status;

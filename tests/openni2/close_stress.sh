@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# Closing OpenNI2 recordings again and again on a busy machine, to count the crashes of OpenNI2's
+# file player that openni2/include/transient/openni2/close_device.h keeps clear of (openni2/
+# README.md has the rates). Not part of `make test`: each run is a few hundred processes.
+#
+#   tests/openni2/close_stress.sh BUILD_DIR play|daemon RUNS [BUSY]
+#
+# Records a 5-frame .oni of transientd's simulated camera with OpenNI2's Recorder
+# (openni_only_reader record), then RUNS times:
+#   play    openni_only_reader plays it in manual mode to its end and closes it;
+#   daemon  transientd --source openni2:FILE?pace=fast serves it to `transient client` until the
+#           recording ends, where the pipeline closes the source, then stops on SIGTERM.
+# BUSY (default 2) busy loops run beside it. Prints each failed run's exit status (139: SIGSEGV)
+# and the count; exits 1 when any run failed.
+set -euo pipefail
+build=$(realpath "${1:?usage: close_stress.sh BUILD_DIR play|daemon RUNS [BUSY]}")
+mode=${2:?play or daemon}
+runs=${3:?runs}
+busy=${4:-2}
+[[ $mode == play || $mode == daemon ]] || { echo "close_stress.sh: play or daemon, not $mode" >&2; exit 2; }
+reader=$build/tests/openni2/openni_only_reader
+transientd=$build/service/transientd
+transient=$build/tools/transient/transient
+openni_env=(env -u TRANSIENT_OPENNI2_DISABLE "LD_LIBRARY_PATH=$build/openni2-runtime")
+
+work=$(mktemp -d)
+pids=()
+cleanup() {
+  for pid in "${pids[@]}"; do kill "$pid" 2>/dev/null || true; done
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+# A daemon on port 0 whose port file names the port; prints the port.
+start_daemon() {
+  local source=$1 port_file=$2 log=$3
+  rm -f "$port_file"
+  "${openni_env[@]}" "$transientd" --source "$source" --listen 127.0.0.1:0 \
+    --port-file "$port_file" --data-dir "$work/data" 2>"$log" &
+  daemon_pid=$!
+  for _ in $(seq 200); do [[ -s $port_file ]] && break; sleep 0.05; done
+  [[ -s $port_file ]] || { echo "close_stress.sh: transientd did not start: $(cat "$log")" >&2; exit 1; }
+}
+
+start_daemon "sim:mirrors?width=80&height=60" "$work/sim.port" "$work/sim.log"
+"${openni_env[@]}" "$reader" record "transient://127.0.0.1:$(cat "$work/sim.port")" 5 \
+  "$work/x.oni" >/dev/null
+kill "$daemon_pid"
+wait "$daemon_pid" || true
+
+for _ in $(seq "$busy"); do
+  (while :; do :; done) &
+  pids+=($!)
+done
+
+failed=0
+for run in $(seq "$runs"); do
+  status=0
+  if [[ $mode == play ]]; then
+    "${openni_env[@]}" "$reader" play "$work/x.oni" "$work/played.bin" >/dev/null \
+      2>"$work/run.log" || status=$?
+  else
+    start_daemon "openni2:$work/x.oni?pace=fast" "$work/replay.port" "$work/run.log"
+    "$transient" client --connect "127.0.0.1:$(cat "$work/replay.port")" --products depth \
+      --frames 5 --out "$work/client" >/dev/null 2>&1 || true
+    for _ in $(seq 100); do grep -q "ended" "$work/run.log" && break; sleep 0.02; done
+    kill "$daemon_pid" 2>/dev/null || true
+    wait "$daemon_pid" || status=$?
+  fi
+  if ((status != 0)); then
+    failed=$((failed + 1))
+    echo "run $run: exit status $status; $(tail -n 2 "$work/run.log" | tr '\n' ' ')"
+  fi
+done
+echo "close_stress.sh $mode: $failed of $runs runs failed ($busy busy loops beside)"
+((failed == 0))
