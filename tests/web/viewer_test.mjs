@@ -12,7 +12,7 @@ import assert from "node:assert/strict";
 import { spawn } from "node:child_process";
 import { request as httpRequest } from "node:http";
 import { connect as tcpConnect } from "node:net";
-import { mkdtempSync, mkdirSync, readFileSync, existsSync, writeFileSync } from "node:fs";
+import { mkdtempSync, mkdirSync, readFileSync, existsSync, writeFileSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 
@@ -161,6 +161,7 @@ after(async () => {
   if (browser) await browser.close();
   const gatewayExit = await stop(gateway);
   await stop(daemon);
+  rmSync(work, { recursive: true, force: true });  // the port files and the daemon's data
   assert.equal(gatewayExit, 0, `transient web did not exit 0 on SIGTERM\n${gateway.log()}`);
 });
 
