@@ -76,8 +76,8 @@ phase "release tests (label release): the rest" wait_for_release_tests
 # OpenMP threads that wait for work sleep instead of spinning (OMP_WAIT_POLICY=passive): several
 # tests run at a time, and a test's spinning team took CPU from the others (docs/tests.md). The
 # release tests keep the default, as users run them. One test more than there are cores: with
-# as many as cores the phase kept the cores 78 % busy (its tests wait on child processes,
-# sockets and timers), with one more 86-89 % and 15-30 s sooner (docs/tests.md).
+# as many as cores the phase kept them 76-80 % busy (its tests wait on child processes, sockets
+# and timers), with one more 88 %, and took 161-168 s instead of 186 s (docs/tests.md).
 test_jobs=${TEST_JOBS:-$((jobs + 1))}
 phase "all tests (ASan + UBSan)" \
   env OMP_WAIT_POLICY=passive \
