@@ -10,14 +10,16 @@
 #   play    openni_only_reader plays it in manual mode to its end and closes it;
 #   daemon  transientd --source openni2:FILE?pace=fast serves it to `transient client` until the
 #           recording ends, where the pipeline closes the source, then stops on SIGTERM.
-# BUSY (default 2) busy loops run beside it. Prints each failed run's exit status (139: SIGSEGV)
-# and the count; exits 1 when any run failed.
+# BUSY (default 2) busy loops run beside it. Prints each failed run's exit status (139: SIGSEGV in
+# a build without the sanitizers, 1 under them) and the count; exits 1 when any run failed.
 set -euo pipefail
-build=$(realpath "${1:?usage: close_stress.sh BUILD_DIR play|daemon RUNS [BUSY]}")
-mode=${2:?play or daemon}
-runs=${3:?runs}
+usage="usage: close_stress.sh BUILD_DIR play|daemon RUNS [BUSY]"
+build=$(realpath "${1:?$usage}")
+mode=${2:?$usage}
+runs=${3:?$usage}
 busy=${4:-2}
 [[ $mode == play || $mode == daemon ]] || { echo "close_stress.sh: play or daemon, not $mode" >&2; exit 2; }
+[[ $runs =~ ^[1-9][0-9]*$ && $busy =~ ^[0-9]+$ ]] || { echo "$usage" >&2; exit 2; }
 reader=$build/tests/openni2/openni_only_reader
 transientd=$build/service/transientd
 transient=$build/tools/transient/transient
@@ -25,32 +27,56 @@ openni_env=(env -u TRANSIENT_OPENNI2_DISABLE "LD_LIBRARY_PATH=$build/openni2-run
 
 work=$(mktemp -d)
 pids=()
+daemon_pid=
 cleanup() {
-  for pid in "${pids[@]}"; do kill "$pid" 2>/dev/null || true; done
+  for pid in "${pids[@]}" $daemon_pid; do kill -KILL "$pid" 2>/dev/null || true; done
   rm -rf "$work"
 }
 trap cleanup EXIT
 
-# A daemon on port 0 whose port file names the port; prints the port.
+# transientd on port 0, in the background (daemon_pid), once its port file names the port.
 start_daemon() {
   local source=$1 port_file=$2 log=$3
   rm -f "$port_file"
   "${openni_env[@]}" "$transientd" --source "$source" --listen 127.0.0.1:0 \
     --port-file "$port_file" --data-dir "$work/data" 2>"$log" &
   daemon_pid=$!
-  for _ in $(seq 200); do [[ -s $port_file ]] && break; sleep 0.05; done
-  [[ -s $port_file ]] || { echo "close_stress.sh: transientd did not start: $(cat "$log")" >&2; exit 1; }
+  for _ in $(seq 200); do
+    [[ -s $port_file ]] && return 0
+    kill -0 "$daemon_pid" 2>/dev/null || break
+    sleep 0.05
+  done
+  echo "close_stress.sh: transientd did not start: $(cat "$log")" >&2
+  exit 1
+}
+
+# SIGTERM to the daemon, SIGKILL after 10 s (a daemon hung while closing counts as failed);
+# returns its exit status.
+stop_daemon() {
+  local status=0
+  kill "$daemon_pid" 2>/dev/null || true
+  for _ in $(seq 200); do
+    kill -0 "$daemon_pid" 2>/dev/null || break
+    sleep 0.05
+  done
+  if kill -0 "$daemon_pid" 2>/dev/null; then
+    echo "close_stress.sh: transientd did not stop within 10 s of SIGTERM" >&2
+    kill -KILL "$daemon_pid" 2>/dev/null || true
+  fi
+  wait "$daemon_pid" || status=$?
+  daemon_pid=
+  return "$status"
 }
 
 start_daemon "sim:mirrors?width=80&height=60" "$work/sim.port" "$work/sim.log"
 "${openni_env[@]}" "$reader" record "transient://127.0.0.1:$(cat "$work/sim.port")" 5 \
   "$work/x.oni" >/dev/null
-kill "$daemon_pid"
-wait "$daemon_pid" || true
+stop_daemon || true
 
 for _ in $(seq "$busy"); do
   (while :; do :; done) &
   pids+=($!)
+  disown  # no job message when cleanup kills it
 done
 
 failed=0
@@ -64,8 +90,7 @@ for run in $(seq "$runs"); do
     "$transient" client --connect "127.0.0.1:$(cat "$work/replay.port")" --products depth \
       --frames 5 --out "$work/client" >/dev/null 2>&1 || true
     for _ in $(seq 100); do grep -q "ended" "$work/run.log" && break; sleep 0.02; done
-    kill "$daemon_pid" 2>/dev/null || true
-    wait "$daemon_pid" || status=$?
+    stop_daemon || status=$?
   fi
   if ((status != 0)); then
     failed=$((failed + 1))

@@ -180,7 +180,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   // Streams stopped, then destroyed, then the device closed, as close_device.h explains: the
-  // file player crashed in 13 of 150 plays on a busy machine when the streams were stopped and
+  // file player crashed in 14 of 300 plays on a busy machine when the streams were stopped and
   // destroyed one after the other (openni2/README.md).
   transient::openni2::CloseDevice(device, {&depth, &ir});
   // No OpenNI::shutdown(): it unloads the drivers, and the sanitizers' leak check at exit could

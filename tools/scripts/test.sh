@@ -7,6 +7,8 @@
 # Release. The GCC build comes first, so that its tests run beside the sanitizer build (below).
 # Prints the wall time of each phase and, at the end, all of them together.
 #   usage: tools/scripts/test.sh [ASAN_DIR] [RELEASE_DIR]
+#   environment: JOBS (parallel compiles and release tests; default: the cores), TEST_JOBS (the
+#   sanitizer tests at a time; default JOBS + 1), CMAKE_FLAGS (both configures)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 asan_dir=${1:-build-asan}

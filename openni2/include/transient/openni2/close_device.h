@@ -15,8 +15,10 @@
 //   loop walks that list without it (MainLoop, :535-543): once a file without repeat has ended,
 //   continuously while any stream is started (its reads fail at once). So the streams are
 //   stopped first, and a file's player is given kPlayerSettle to see it: then it walks the list
-//   once each 10 ms sleep. No public call takes the player's lock, so this makes the race
-//   unlikely, not impossible (openni2/README.md has the rates).
+//   once each 10 ms sleep. (Before a manual-mode file's end the player instead waits for the
+//   next read in OnNodeNewData, :1006, and walks the list there once each 2 s wait.) No public
+//   call takes the player's lock, so this makes the race unlikely, not impossible (openni2/
+//   README.md has the rates).
 #pragma once
 
 #include <OpenNI.h>
