@@ -41,9 +41,7 @@ bool MeseCumulative::Init(std::span<const Complex> q, RootMethod method) {
   log_at_zero_ready_ = false;
   for (int j = 0; j < size_; ++j) q_[j] = q[j];
   closed_form_ = false;
-  std::array<Complex, kMaxMoments> c;
-  InverseLevinson(q, std::span<Complex>(c.data(), size_));
-  c0_ = c[0].real();
+  c0_ = InverseLevinsonZeroth(q);
 
   std::array<Complex, kMaxOrder> roots;
   degree_ = MeseRoots(q, roots, method);

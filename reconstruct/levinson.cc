@@ -145,31 +145,54 @@ bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min_out, std::
   return true;
 }
 
-void InverseLevinson(std::span<const Complex> q, std::span<Complex> c) {
-  assert(c.size() == q.size() && !q.empty() && q.size() <= kMaxMoments);
+namespace {
+
+// Undoes Levinson's recursion (thesis alg. B.3) from q = q^{(m)} down to q^{(0)}: calls
+// row(l, current) with q^{(l)} in current[0..l], for l = m, ..., 0.
+template <typename Row>
+void UndoLevinson(std::span<const Complex> q, Row&& row) {
+  assert(!q.empty() && q.size() <= kMaxMoments);
   assert(q[0].real() > 0.0);
+  const int m = static_cast<int>(q.size()) - 1;
+  std::array<Complex, kMaxMoments> current, next;
+  for (int j = 0; j <= m; ++j) current[j] = q[j];
+  for (int l = m; l >= 0; --l) {
+    row(l, current);
+    if (l == 0) break;
+    // p = (conj q_l, ..., conj q_0); undo one Levinson step: q^{(l-1)} = q^{(l)} - q_l/p_l * p.
+    const Complex ratio = internal::Divide(current[l], std::conj(current[0]));
+    for (int j = 0; j < l; ++j) next[j] = current[j] - ratio * std::conj(current[l - j]);
+    for (int j = 0; j < l; ++j) current[j] = next[j];
+  }
+}
+
+}  // namespace
+
+void InverseLevinson(std::span<const Complex> q, std::span<Complex> c) {
+  assert(c.size() == q.size());
   const int m = static_cast<int>(q.size()) - 1;
   // Row l of the lower triangular L holds q^{(l)} reversed: L_{l,j} = q^{(l)}_{l-j}, where
   // q^{(l)} = C^{(l)}(c)^{-1} e_0 for the leading (l+1)x(l+1) minor; then L C(c) is upper
   // triangular with unit diagonal, so c = C(c) e_0 = L^{-1} e_0.
   std::array<std::array<Complex, kMaxMoments>, kMaxMoments> lower;
-  std::array<Complex, kMaxMoments> current;
-  for (int j = 0; j <= m; ++j) current[j] = q[j];
-  for (int l = m; l >= 0; --l) {
+  UndoLevinson(q, [&](int l, const std::array<Complex, kMaxMoments>& current) {
     for (int j = 0; j <= l; ++j) lower[l][j] = current[l - j];
-    if (l == 0) break;
-    // p = (conj q_l, ..., conj q_0); undo one Levinson step: q^{(l-1)} = q^{(l)} - q_l/p_l * p.
-    const Complex ratio = internal::Divide(current[l], std::conj(current[0]));
-    std::array<Complex, kMaxMoments> next;
-    for (int j = 0; j < l; ++j) next[j] = current[j] - ratio * std::conj(current[l - j]);
-    for (int j = 0; j < l; ++j) current[j] = next[j];
-  }
+  });
   for (int l = 0; l <= m; ++l) {
     Complex sum = (l == 0) ? Complex(1.0) : Complex(0.0);
     for (int j = 0; j < l; ++j) sum -= lower[l][j] * c[j];
     c[l] = internal::Divide(sum, lower[l][l]);
   }
   c[0] = Complex(c[0].real(), 0.0);
+}
+
+double InverseLevinsonZeroth(std::span<const Complex> q) {
+  Complex q0_of_first_minor = 0.0;  // q^{(0)}_0 = 1 / c_0
+  UndoLevinson(q, [&](int l, const std::array<Complex, kMaxMoments>& current) {
+    if (l == 0) q0_of_first_minor = current[0];
+  });
+  // As InverseLevinson's first row: the same division, so the same c_0 to the last bit.
+  return internal::Divide(Complex(1.0), q0_of_first_minor).real();
 }
 
 }  // namespace transient

@@ -54,6 +54,8 @@ TEST(Levinson, InverseLevinsonReturnsTheInput) {
       for (int j = 0; j <= m; ++j) {
         EXPECT_NEAR(std::abs(back[j] - c[j]), 0.0, 1e-10 * c[0].real()) << "m=" << m << " j=" << j;
       }
+      // c_0 alone is InverseLevinson's c_0 to the last bit (the cumulative's Init uses it).
+      EXPECT_EQ(InverseLevinsonZeroth(q), back[0].real()) << "m=" << m;
     }
   }
 }

@@ -68,4 +68,9 @@ inline constexpr double kToeplitzPersymmetryTolerance = 1e-6;
 // disc (thesis lemma B.9); asserted in debug builds via q_0 > 0.
 void InverseLevinson(std::span<const Complex> q, std::span<Complex> c);
 
+// c_0 alone of that inverse map, equal to InverseLevinson's c[0] to the last bit: the recursion
+// undone without InverseLevinson's triangular solve and its (m+1)^2 matrix, for the
+// cumulative's per-pixel Init, which needs only c_0.
+[[nodiscard]] double InverseLevinsonZeroth(std::span<const Complex> q);
+
 }  // namespace transient
