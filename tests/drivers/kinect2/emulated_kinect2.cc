@@ -230,16 +230,12 @@ class DepthStream {
     plan_.clear();
     next_ = 0;
     if (!lost_) {
-      const std::vector<float> samples =
-          options_.renderer
-              ? options_.renderer(sequence_, subframe_)
-              : std::vector<float>(static_cast<size_t>(kWidth) * kHeight, Options::kDefaultSample);
-      if (samples.size() != static_cast<size_t>(kWidth) * kHeight) {
-        Die(absl::StrCat("the renderer gave ", samples.size(), " samples for sequence ", sequence_,
-                         " sub-frame ", subframe_, "; a sub-frame has ", kWidth * kHeight));
+      if (options_.renderer) {
+        options_.renderer(sequence_, subframe_, samples_);
+      } else {
+        std::fill(samples_.begin(), samples_.end(), Options::kDefaultSample);
       }
-      bytes_ = EncodeSubImage(samples);
-      bytes_.resize(kSubPacketBytes, 0);
+      EncodeSubImage(samples_, bytes_);  // the footer below; the rest of its 152 bytes stays 0
       const uint32_t timestamp = options_.first_timestamp + sequence_ * kFrameTicks +
                                  static_cast<uint32_t>(subframe_) * kSubFrameTicks;
       const uint32_t footer[6] = {
@@ -272,7 +268,6 @@ class DepthStream {
                        kDataPacketsPerSubFrame;
     }
     plan_.insert(plan_.end(), idle, Planned{});
-    if (bytes_.empty()) bytes_.resize(1);  // a valid pointer for empty packets
     planned_ = true;
     return true;
   }
@@ -284,7 +279,10 @@ class DepthStream {
   bool lost_ = false;
   std::vector<Planned> plan_;
   size_t next_ = 0;
-  std::vector<uint8_t> bytes_;  // the sub-packet: sub-image and footer
+  // The sub-frame's samples, and its sub-packet (sub-image and footer; also the valid pointer
+  // of empty packets): allocated once.
+  std::vector<float> samples_ = std::vector<float>(static_cast<size_t>(kWidth) * kHeight);
+  std::vector<uint8_t> bytes_ = std::vector<uint8_t>(kSubPacketBytes, 0);
   int64_t subframes_served_ = 0;
 };
 
@@ -299,11 +297,10 @@ uint16_t EncodeSample(float value) {
   return value < 0.0f && code != 0 ? static_cast<uint16_t>(1024 + code) : code;
 }
 
-std::vector<uint8_t> EncodeSubImage(const std::vector<float>& samples) {
-  if (samples.size() != static_cast<size_t>(kWidth) * kHeight) {
-    Die(absl::StrCat("EncodeSubImage: ", samples.size(), " samples"));
+void EncodeSubImage(std::span<const float> samples, std::span<uint8_t> bytes) {
+  if (samples.size() != static_cast<size_t>(kWidth) * kHeight || bytes.size() < kSubImageBytes) {
+    Die(absl::StrCat("EncodeSubImage: ", samples.size(), " samples into ", bytes.size(), " bytes"));
   }
-  std::vector<uint8_t> bytes(kSubImageBytes);
   for (int r = 0; r < kHeight; ++r) {
     // Rows are read out from the middle: the lower half comes in reverse.
     const int stored = r < kHeight / 2 ? r : (kHeight + kHeight / 2 - 1) - r;
@@ -324,6 +321,11 @@ std::vector<uint8_t> EncodeSubImage(const std::vector<float>& samples) {
       }
     }
   }
+}
+
+std::vector<uint8_t> EncodeSubImage(std::span<const float> samples) {
+  std::vector<uint8_t> bytes(kSubImageBytes);
+  EncodeSubImage(samples, bytes);
   return bytes;
 }
 

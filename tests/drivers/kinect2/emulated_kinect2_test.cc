@@ -15,6 +15,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -81,13 +82,17 @@ float TestSample(uint32_t sequence, int subframe, int x, int r) {
                             100);
 }
 
-std::vector<float> TestSubFrame(uint32_t sequence, int subframe) {
-  std::vector<float> samples(static_cast<size_t>(kWidth) * kHeight);
+void RenderTestSubFrame(uint32_t sequence, int subframe, std::span<float> samples) {
   for (int r = 0; r < kHeight; ++r) {
     for (int x = 0; x < kWidth; ++x) {
       samples[static_cast<size_t>(r) * kWidth + x] = TestSample(sequence, subframe, x, r);
     }
   }
+}
+
+std::vector<float> TestSubFrame(uint32_t sequence, int subframe) {
+  std::vector<float> samples(static_cast<size_t>(kWidth) * kHeight);
+  RenderTestSubFrame(sequence, subframe, samples);
   return samples;
 }
 
@@ -630,7 +635,7 @@ TEST_F(EmulatedKinect2Test, LeavingAlternateSetting1EndsTheIsoTransfersInFlight)
 
 TEST_F(EmulatedKinect2Test, StreamCarriesEncodedSubFramesWithTheirFooters) {
   Options options;
-  options.renderer = TestSubFrame;
+  options.renderer = RenderTestSubFrame;
   options.first_timestamp = 1000;
   ASSERT_NO_FATAL_FAILURE(Start(options));
   ASSERT_NO_FATAL_FAILURE(Open());
@@ -676,7 +681,7 @@ TEST_F(EmulatedKinect2Test, StreamCarriesEncodedSubFramesWithTheirFooters) {
 
 TEST_F(EmulatedKinect2Test, PacketErrorInTheMiddleOfAUrbLeavesLaterPacketsAtTheirOffsets) {
   Options options;
-  options.renderer = TestSubFrame;
+  options.renderer = RenderTestSubFrame;
   options.faults.push_back(Fault::AtPacket(Fault::kPacketError, 0, 0, 3));
   ASSERT_NO_FATAL_FAILURE(Start(options));
   ASSERT_NO_FATAL_FAILURE(Open());

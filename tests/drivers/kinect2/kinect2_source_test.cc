@@ -11,6 +11,7 @@
 #include <cmath>
 #include <complex>
 #include <map>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -37,12 +38,10 @@ float Sample(uint32_t n, int s, int x, int y) {
 }
 
 emu::Renderer Pattern() {
-  return [](uint32_t n, int s) {
-    std::vector<float> v(512 * 424);
+  return [](uint32_t n, int s, std::span<float> v) {
     for (int y = 0; y < 424; ++y) {
       for (int x = 0; x < 512; ++x) v[y * 512 + x] = Sample(n, s, x, y);
     }
-    return v;
   };
 }
 

@@ -5,16 +5,16 @@
 // issue's ten minutes: TRANSIENT_KINECT2_STRESS_SECONDS=600 (docs/kinect2.md
 // has the measured run).
 #include <dirent.h>
-#include <unistd.h>
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <map>
 #include <random>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -62,12 +62,10 @@ TEST(Kinect2Stress, StreamsAtTheCameraRateWithRandomFaultsCountingEveryLoss) {
   emu::Options options;
   options.realtime = true;
   options.max_frames = frames;
-  options.renderer = [](uint32_t n, int s) {
-    std::vector<float> v(512 * 424);
+  options.renderer = [](uint32_t n, int s, std::span<float> v) {
     for (int y = 0; y < 424; ++y) {
       for (int x = 0; x < 512; ++x) v[y * 512 + x] = StressSample(n, s, x, y);
     }
-    return v;
   };
   int64_t expected_incomplete = 0;
   const emu::Fault::Kind kinds[] = {emu::Fault::kPacketError, emu::Fault::kShortPacket,

@@ -1,8 +1,10 @@
 // The simulated Kinect v2 as the emulated camera's picture (simulated_kinect2.h).
 #include "tests/drivers/kinect2/simulated_kinect2.h"
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
+#include <span>
 
 #include "kinect2/kinect2_format.h"
 #include "sim/fixed_pattern.h"
@@ -35,9 +37,13 @@ SimulatedKinect2::SimulatedKinect2(const std::string& scene_uri) {
 }
 
 Renderer SimulatedKinect2::AsRenderer() const {
-  return [subframes = subframes_](uint32_t, int subframe) {
-    if (subframe >= 9) return std::vector<float>(kWidth * kHeight, 0.0f);
-    return subframes[static_cast<size_t>(subframe)];
+  return [subframes = subframes_](uint32_t, int subframe, std::span<float> samples) {
+    if (subframe >= 9) {
+      std::fill(samples.begin(), samples.end(), 0.0f);
+    } else {
+      std::copy(subframes[static_cast<size_t>(subframe)].begin(),
+                subframes[static_cast<size_t>(subframe)].end(), samples.begin());
+    }
   };
 }
 
