@@ -119,15 +119,15 @@ uint16_t EncodeSample(float value);
 // row 635 - r below; column x in slot x / 4 + 128 * (x % 4) of its row, whose 11-bit code
 // occupies bits 11 * slot .. 11 * slot + 10 of the row read as a little-endian bit stream.
 // Precondition: samples.size() == kWidth * kHeight; the first form writes the sub-image's
-// kSubImageBytes into `out` (out.size() >= kSubImageBytes), the second returns them.
-void EncodeSubImage(std::span<const float> samples, std::span<uint8_t> out);
+// kSubImageBytes into `bytes` (bytes.size() >= kSubImageBytes), the second returns them.
+void EncodeSubImage(std::span<const float> samples, std::span<uint8_t> bytes);
 std::vector<uint8_t> EncodeSubImage(std::span<const float> samples);
 
-// Writes the samples of sub-frame `subframe` (0..9) of depth frame `sequence` into `samples`:
-// kWidth x kHeight values in output image order (see EncodeSubImage), in a buffer the emulator
-// keeps (a sub-frame 300 times a second would otherwise be a fresh 850 KB allocation each; under
-// the sanitizers, fresh pages of a large allocation each time). Runs on umockdev's thread with
-// the emulator's lock held: it must not call the emulator.
+// Writes the samples of sub-frame `subframe` (0..9) of depth frame `sequence` into `samples`,
+// every one of them: kWidth x kHeight values in output image order (see EncodeSubImage), in a
+// buffer the emulator keeps (a sub-frame 300 times a second would otherwise be a fresh 850 KB
+// allocation each; under the sanitizers, fresh pages of a large allocation each time). Runs on
+// umockdev's thread with the emulator's lock held: it must not call the emulator.
 using Renderer = std::function<void(uint32_t sequence, int subframe, std::span<float> samples)>;
 
 // Entry 3 of the firmware versions, printed major.minor.revision.build (4.0.3912.0).

@@ -23,6 +23,8 @@ SimulatedKinect2::SimulatedKinect2(const std::string& scene_uri) {
   for (int n = 0; n < 9; ++n) {
     RawFrame frame;
     if (!(*source)->Next(absl::Seconds(30), &frame).ok()) return;
+    // A scene of another size (width= or height= after camera=kinect2) is not this camera's.
+    if (frame.pixels.size() != static_cast<size_t>(kWidth) * kHeight) return;
     frames_.push_back(frame);
     // The sub-frame of this exposure: group of its harmonic, step k with bucket (3 - k) % 3.
     int group = 0;

@@ -19,6 +19,7 @@ namespace transient::kinect2::testing {
 class SimulatedKinect2 {
  public:
   // `scene_uri`: a sim: URI with camera=kinect2 (and pace=fast); the first cycle is rendered.
+  // Not ok() when the scene cannot be rendered or its frames are not kWidth x kHeight.
   explicit SimulatedKinect2(const std::string& scene_uri);
 
   bool ok() const { return ok_; }
