@@ -9,29 +9,18 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
-#include <system_error>
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_split.h"
+#include "tests/fuzz/scratch_directory.h"
 #include "transient/service/data_dir.h"
 
 namespace {
 
-// The scratch directory, removed when the process ends.
-std::filesystem::path& ScratchRoot() {
-  static std::filesystem::path root;
-  return root;
-}
-
 const transient::service::DataDir& Directory() {
   static const transient::service::DataDir* directory = [] {
-    char pattern[] = "/tmp/transient-fuzz-data-XXXXXX";
-    if (::mkdtemp(pattern) == nullptr) std::abort();
-    const std::filesystem::path& root = ScratchRoot() = pattern;
-    std::atexit([] {
-      std::error_code ignored;
-      std::filesystem::remove_all(ScratchRoot(), ignored);  // the links, not what they name
-    });
+    const std::filesystem::path root =
+        transient::fuzz::ScratchDirectoryRemovedAtExit("transient-fuzz-data");
     std::filesystem::create_directories(root / "sub" / "deeper");
     std::ofstream(root / "file.h5") << "x";
     std::filesystem::create_directory_symlink("/tmp", root / "out");

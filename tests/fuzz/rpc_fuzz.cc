@@ -10,13 +10,12 @@
 
 #include <cstdint>
 #include <cstdlib>
-#include <filesystem>
 #include <memory>
 #include <string>
-#include <system_error>
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "tests/fuzz/scratch_directory.h"
 #include "transient/service/data_dir.h"
 #include "transient/service/pipeline.h"
 #include "transient/service/server.h"
@@ -27,7 +26,6 @@ namespace {
 using transient::v1::Transient;
 
 struct Daemon {
-  std::string scratch;  // the data directory, removed when the process ends
   std::unique_ptr<transient::service::Pipeline> pipeline;
   std::unique_ptr<transient::service::TransientServer> server;
   std::unique_ptr<Transient::Stub> stub;
@@ -35,9 +33,8 @@ struct Daemon {
 
 Daemon& TheDaemon() {
   static Daemon* daemon = [] {
-    char pattern[] = "/tmp/transient-fuzz-rpc-XXXXXX";
-    if (::mkdtemp(pattern) == nullptr) std::abort();
-    const std::string root = pattern;
+    // Removed at exit after the handler below, registered later, has stopped the daemon.
+    const std::string root = transient::fuzz::ScratchDirectoryRemovedAtExit("transient-fuzz-rpc");
     absl::StatusOr<transient::service::DataDir> data =
         transient::service::DataDir::Open(root, {.max_bytes = 64 << 20, .max_files = 64});
     if (!data.ok()) std::abort();
@@ -45,7 +42,6 @@ Daemon& TheDaemon() {
                                                     "sim:mirrors?width=16&height=12&pace=fast"};
     options.data_dir = std::make_shared<const transient::service::DataDir>(*std::move(data));
     auto* made = new Daemon;
-    made->scratch = root;
     absl::StatusOr<std::unique_ptr<transient::service::Pipeline>> pipeline =
         transient::service::Pipeline::Create(std::move(options));
     if (!pipeline.ok()) std::abort();
@@ -62,8 +58,6 @@ Daemon& TheDaemon() {
       Daemon& running = TheDaemon();
       running.pipeline->Stop();
       running.server->Shutdown(absl::Seconds(1));
-      std::error_code ignored;
-      std::filesystem::remove_all(running.scratch, ignored);
     });
     grpc::ChannelArguments arguments;
     arguments.SetMaxReceiveMessageSize(-1);
