@@ -62,6 +62,14 @@ class Kinect2DaemonTest : public ::testing::Test {
   std::unique_ptr<emu::EmulatedKinect2> camera_;
 };
 
+// A scene whose size is not the camera's (width= after camera=kinect2 changes the preset) is
+// refused: its sub-frames would not fill the emulator's 512 x 424 samples.
+TEST(SimulatedKinect2, ASceneOfAnotherSizeThanTheCamerasIsNotOk) {
+  const std::string narrow = absl::StrCat(kScene, "&width=256");
+  ASSERT_THAT(OpenSource(narrow).status(), IsOk()) << "the scene itself is valid";
+  EXPECT_FALSE(emu::SimulatedKinect2(narrow).ok());
+}
+
 // Median |range - first return| over the pixels with both.
 double MedianRangeError(const std::vector<float>& range, const std::vector<float>& truth) {
   std::vector<double> errors;
