@@ -2,6 +2,7 @@
 #include "transient/reconstruct/demodulation.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -269,34 +270,45 @@ void Demodulator::RejectVideoOutliers() {
   }
 }
 
-const float* Demodulator::AverageExposure(int e) {
-  const int64_t pixels = geometry_.pixel_count();
-  uint8_t* bad = bad_.data();
-  int used = 0;
-  std::vector<float>& sum = averages_[static_cast<size_t>(e)];
+const float* Demodulator::ExposureAverage(int e) {
   const float* single = nullptr;
+  int used = 0;
+  for (int t = 0; t < takes_; ++t) {
+    const size_t i = static_cast<size_t>(t * exposures_per_take_ + e);
+    if (!accepted_[i]) continue;
+    if (used++ == 0) single = slots_[i]->pixels.data();
+  }
+  if (used == 1) return single;
+  std::vector<float>& sum = averages_[static_cast<size_t>(e)];
+  sum.resize(static_cast<size_t>(geometry_.pixel_count()));
+  return sum.data();
+}
+
+void Demodulator::AverageExposure(int e, int64_t begin, int64_t end) {
+  uint8_t* bad = bad_.data();
+  float* sum = averages_[static_cast<size_t>(e)].data();
+  int used = 0;
+  const float* first = nullptr;
   for (int t = 0; t < takes_; ++t) {
     const size_t i = static_cast<size_t>(t * exposures_per_take_ + e);
     if (!accepted_[i]) continue;
     const float* v = slots_[i]->pixels.data();
     const float level = slots_[i]->saturation_level;
     if (used == 0) {
-      single = v;
-      for (int64_t p = 0; p < pixels; ++p) bad[p] |= Unusable(v[p], level);
+      first = v;
+      for (int64_t p = begin; p < end; ++p) bad[p] |= Unusable(v[p], level);
     } else {
-      if (used == 1) sum.assign(single, single + pixels);
-      float* s = sum.data();
-      for (int64_t p = 0; p < pixels; ++p) {
-        s[p] += v[p];
+      if (used == 1) std::copy(first + begin, first + end, sum + begin);
+      for (int64_t p = begin; p < end; ++p) {
+        sum[p] += v[p];
         bad[p] |= Unusable(v[p], level);
       }
     }
     ++used;
   }
-  if (used == 1) return single;
+  if (used <= 1) return;
   const float scale = 1.0f / static_cast<float>(used);
-  for (float& s : sum) s *= scale;
-  return sum.data();
+  for (int64_t p = begin; p < end; ++p) sum[p] *= scale;
 }
 
 void Demodulator::UpdateVideoHistory(const std::vector<bool>& exposure_filled) {
@@ -358,36 +370,63 @@ absl::Status Demodulator::Demodulate(std::span<const RawFrame> cycle, MomentImag
     }
   }
 
-  bad_.assign(static_cast<size_t>(pixels), 0);
+  // Each exposure's mean over its accepted takes: the single take's pixels, or averages_[e],
+  // which the blocks below fill (AverageExposure).
   std::vector<const float*> average(exposures, nullptr);
   int frames_used = 0;
   for (size_t e = 0; e < exposures; ++e) {
     if (plane_filled[static_cast<size_t>(exposure_plane_[e])]) continue;
-    average[e] = AverageExposure(static_cast<int>(e));
+    average[e] = ExposureAverage(static_cast<int>(e));
     for (int t = 0; t < takes_; ++t) frames_used += accepted_[t * exposures + e] ? 1 : 0;
   }
+  std::vector<int> filled_planes;
+  for (int j = 0; j <= m; ++j) {
+    if (plane_filled[static_cast<size_t>(j)]) filled_planes.push_back(j);
+  }
 
+  // Sized only: the blocks below write every value.
+  bad_.resize(static_cast<size_t>(pixels));
   out->geometry = geometry_;
   out->order = m;
-  out->real.assign(static_cast<size_t>((m + 1) * pixels), 0.0f);
-  out->imag.assign(static_cast<size_t>((m + 1) * pixels), 0.0f);
-  out->valid.assign(static_cast<size_t>(pixels), 1);
-  out->flags.assign(static_cast<size_t>(pixels), 0);
+  out->real.resize(static_cast<size_t>((m + 1) * pixels));
+  out->imag.resize(static_cast<size_t>((m + 1) * pixels));
+  out->valid.resize(static_cast<size_t>(pixels));
+  out->flags.resize(static_cast<size_t>(pixels));
+  if (options_.video) {
+    previous_.geometry = geometry_;
+    previous_.order = m;
+    previous_.real.resize(out->real.size());
+    previous_.imag.resize(out->imag.size());
+    previous_.valid.resize(out->valid.size());
+    previous_.flags.resize(out->flags.size());
+  }
 
   const float gain_re = static_cast<float>(inverse_gain_.real());
   const float gain_im = static_cast<float>(inverse_gain_.imag());
   const float gain_abs = static_cast<float>(std::abs(inverse_gain_));
   const ZerothScheme zeroth = schedule_.options().zeroth;
-  // Each pixel's moments depend on that pixel alone: the planes are demodulated over blocks of
-  // pixels on the kernels' threads, each block as the whole image was (the same values).
+  std::atomic<int64_t> saturated{0};
+  // Each pixel's moments depend on that pixel alone: the whole cycle is demodulated over blocks
+  // of pixels on the kernels' threads, each block as the whole image was (the same values).
   internal::ParallelBlocks(
       pixels,
       [&](int64_t begin, int64_t end) {
+        uint8_t* bad = bad_.data();
+        std::fill(bad + begin, bad + end, uint8_t{0});
+        for (size_t e = 0; e < exposures; ++e) {
+          if (average[e] != nullptr) AverageExposure(static_cast<int>(e), begin, end);
+        }
         for (int j = 0; j <= m; ++j) {
-          if (plane_filled[static_cast<size_t>(j)]) continue;
-          const std::array<int, kMaxPhaseBuckets>& ex = plane_exposures_[static_cast<size_t>(j)];
           float* re = out->real_plane(j);
           float* im = out->imag_plane(j);
+          if (plane_filled[static_cast<size_t>(j)]) {  // the previous cycle's
+            std::copy(previous_.real_plane(j) + begin, previous_.real_plane(j) + end, re + begin);
+            std::copy(previous_.imag_plane(j) + begin, previous_.imag_plane(j) + end, im + begin);
+            continue;
+          }
+          std::fill(re + begin, re + end, 0.0f);
+          std::fill(im + begin, im + end, 0.0f);
+          const std::array<int, kMaxPhaseBuckets>& ex = plane_exposures_[static_cast<size_t>(j)];
           if (j == 0 && zeroth == ZerothScheme::kEstimated) continue;  // plane 0 stays 0
           if (ex[0] < 0) continue;  // a harmonic the schedule does not measure: stays 0
           if (j == 0 && zeroth == ZerothScheme::kUnmodulatedPair) {
@@ -396,8 +435,7 @@ absl::Status Demodulator::Demodulate(std::span<const RawFrame> cycle, MomentImag
             for (int64_t p = begin; p < end; ++p) re[p] = on[p] - off[p];
             continue;
           }
-          // Z = (2/N) sum_k M_k exp(i*2*pi*k/N), accumulated bucket by bucket into re, im
-          // (zero from the assign above).
+          // Z = (2/N) sum_k M_k exp(i*2*pi*k/N), accumulated bucket by bucket into re, im.
           for (size_t k = 0; k < bucket_cos_.size(); ++k) {
             const float* a = average[static_cast<size_t>(ex[k])];
             const float wc = bucket_cos_[k], ws = bucket_sin_[k];
@@ -419,41 +457,44 @@ absl::Status Demodulator::Demodulate(std::span<const RawFrame> cycle, MomentImag
             im[p] = zr * gain_im + zi * gain_re;
           }
         }
+        uint8_t* valid = out->valid.data();
+        uint8_t* flags = out->flags.data();
+        int64_t block_saturated = 0;
+        for (int64_t p = begin; p < end; ++p) {
+          valid[p] = bad[p] == 0 ? 1 : 0;
+          flags[p] = bad[p] == 0 ? 0 : kFlagSaturated;
+          block_saturated += bad[p] == 0 ? 0 : 1;
+        }
+        if (!filled_planes.empty()) {
+          for (int64_t p = begin; p < end; ++p) {
+            flags[p] |=
+                static_cast<uint8_t>(kFlagOutlierFilled | (previous_.flags[p] & kFlagSaturated));
+            valid[p] &= previous_.valid[p];
+          }
+        }
+        for (int64_t p = begin; p < end; ++p) {
+          if (valid[p]) continue;
+          for (int j = 0; j <= m; ++j) {
+            out->real_plane(j)[p] = kNaNf;
+            out->imag_plane(j)[p] = kNaNf;
+          }
+        }
+        saturated.fetch_add(block_saturated, std::memory_order_relaxed);
+        if (!options_.video) return;
+        // This cycle, for the next one's filled planes.
+        for (int j = 0; j <= m; ++j) {
+          std::copy(out->real_plane(j) + begin, out->real_plane(j) + end,
+                    previous_.real_plane(j) + begin);
+          std::copy(out->imag_plane(j) + begin, out->imag_plane(j) + end,
+                    previous_.imag_plane(j) + begin);
+        }
+        std::copy(valid + begin, valid + end, previous_.valid.data() + begin);
+        std::copy(flags + begin, flags + end, previous_.flags.data() + begin);
       },
       kDemodulationBlock);
 
-  int64_t saturated = 0;
-  for (int64_t p = 0; p < pixels; ++p) {
-    if (bad_[static_cast<size_t>(p)]) {
-      out->valid[static_cast<size_t>(p)] = 0;
-      out->flags[static_cast<size_t>(p)] = kFlagSaturated;
-      ++saturated;
-    }
-  }
-  std::vector<int> filled_planes;
-  for (int j = 0; j <= m; ++j) {
-    if (!plane_filled[static_cast<size_t>(j)]) continue;
-    filled_planes.push_back(j);
-    std::copy_n(previous_.real_plane(j), pixels, out->real_plane(j));
-    std::copy_n(previous_.imag_plane(j), pixels, out->imag_plane(j));
-    for (int64_t p = 0; p < pixels; ++p) {
-      const size_t q = static_cast<size_t>(p);
-      out->flags[q] |=
-          static_cast<uint8_t>(kFlagOutlierFilled | (previous_.flags[q] & kFlagSaturated));
-      out->valid[q] &= previous_.valid[q];
-    }
-  }
-  for (int64_t p = 0; p < pixels; ++p) {
-    if (out->valid[static_cast<size_t>(p)]) continue;
-    for (int j = 0; j <= m; ++j) {
-      out->real_plane(j)[p] = kNaNf;
-      out->imag_plane(j)[p] = kNaNf;
-    }
-  }
-
   if (options_.video) {
     UpdateVideoHistory(exposure_filled);
-    previous_ = *out;
     have_previous_ = true;
   }
   if (report != nullptr) {
@@ -464,7 +505,7 @@ absl::Status Demodulator::Demodulate(std::span<const RawFrame> cycle, MomentImag
       if (!accepted_[i]) report->rejected.push_back(slots_[i]->config);
     }
     report->filled_planes = std::move(filled_planes);
-    report->saturated_pixels = saturated;
+    report->saturated_pixels = saturated.load();
     report->filled_pixels = report->filled_planes.empty() ? 0 : pixels;
   }
   return absl::OkStatus();

@@ -13,6 +13,7 @@
 #include "transient/drivers/capture_source.h"
 #include "transient/drivers/simulator.h"
 #include "transient/reconstruct/cycle_assembler.h"
+#include "transient/reconstruct/demodulation.h"
 #include "transient/reconstruct/frame_pipeline.h"
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/levinson.h"
@@ -157,6 +158,53 @@ void BM_MeseRangeSimulated(benchmark::State& state) {
   TimeMeseRange(state, *image);
 }
 BENCHMARK(BM_MeseRangeSimulated)->Apply(Arguments)->Unit(benchmark::kMillisecond);
+
+// The daemon's demodulation (video mode: outlier captures filled from the previous cycle) of
+// one cycle of the simulated camera's `mirrors` scene at 640 x 480, m = 4, demodulated again
+// and again. Argument: threads (KernelOptions).
+void BM_Demodulate(benchmark::State& state) {
+  SetKernelOptions({.threads = static_cast<int>(state.range(0))});
+  absl::StatusOr<SimulatorOptions> options =
+      ParseSimulatorUri("sim:mirrors?pace=fast&m=4&width=640&height=480");
+  absl::StatusOr<std::unique_ptr<CaptureSource>> source =
+      options.ok() ? OpenSimulator(*options)
+                   : absl::StatusOr<std::unique_ptr<CaptureSource>>(options.status());
+  absl::Status status = source.ok() ? (*source)->Start() : source.status();
+  std::vector<RawFrame> cycle;
+  if (status.ok()) {
+    const AcquisitionSchedule& schedule = (*source)->schedule();
+    for (int i = 0; i < schedule.raw_frames_per_frame() && status.ok(); ++i) {
+      RawFrame frame;
+      status = (*source)->Next(absl::Seconds(10), &frame);
+      cycle.push_back(std::move(frame));
+    }
+  }
+  absl::StatusOr<Demodulator> demodulator =
+      status.ok() ? Demodulator::Create((*source)->schedule(), (*source)->camera().geometry,
+                                        DemodulationOptions{.video = true})
+                  : absl::StatusOr<Demodulator>(status);
+  if (!demodulator.ok()) {
+    state.SkipWithError(std::string(demodulator.status().message()).c_str());
+    return;
+  }
+  MomentImage moments;
+  for (auto _ : state) {
+    status = demodulator->Demodulate(cycle, &moments);
+    if (!status.ok()) {
+      state.SkipWithError(std::string(status.message()).c_str());
+      return;
+    }
+  }
+  state.counters["pixels/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations() * moments.geometry.pixel_count()),
+                         benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_Demodulate)
+    ->ArgName("threads")
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 void BM_Pisarenko(benchmark::State& state) {
   const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));

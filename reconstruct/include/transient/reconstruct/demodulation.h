@@ -122,9 +122,12 @@ class Demodulator {
   void RejectOutlierTakes(int e);
   // Scores every accepted frame against the previous cycle and clears accepted_ for outliers.
   void RejectVideoOutliers();
-  // The mean of the accepted takes of exposure `e` (in averages_[e], or the single frame's
-  // pixels); ORs pixels that are NaN or saturated in a used frame into bad_.
-  const float* AverageExposure(int e);
+  // Where the mean of the accepted takes of exposure `e` lies: the single take's pixels, or
+  // averages_[e] (sized here) for AverageExposure to fill.
+  const float* ExposureAverage(int e);
+  // The mean of the accepted takes of exposure `e` into averages_[e] over pixels [begin, end)
+  // where it has several; ORs the pixels that are NaN or saturated in a used frame into bad_.
+  void AverageExposure(int e, int64_t begin, int64_t end);
   // Remembers the accepted frames' sample averages and scores of the exposures not filled.
   void UpdateVideoHistory(const std::vector<bool>& exposure_filled);
 
