@@ -159,9 +159,10 @@ void BM_MeseRangeSimulated(benchmark::State& state) {
 }
 BENCHMARK(BM_MeseRangeSimulated)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
-// The daemon's demodulation (video mode: outlier captures filled from the previous cycle) of
-// one cycle of the simulated camera's `mirrors` scene at 640 x 480, m = 4, demodulated again
-// and again. Argument: threads (KernelOptions).
+// The daemon's demodulation of one cycle of the simulated camera's `mirrors` scene at
+// 640 x 480, m = 4, demodulated again and again in video mode (each cycle scored against the
+// previous one and kept for the next; the same cycle, so no plane is filled). Argument:
+// threads (KernelOptions).
 void BM_Demodulate(benchmark::State& state) {
   SetKernelOptions({.threads = static_cast<int>(state.range(0))});
   absl::StatusOr<SimulatorOptions> options =
