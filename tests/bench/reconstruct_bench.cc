@@ -32,6 +32,11 @@ void UseKernels(const benchmark::State& state) {
                     .threads = static_cast<int>(state.range(2))});
 }
 
+// One argument, threads: 1 and 2 (KernelOptions), rates per wall-clock second.
+void OnOneAndTwoThreads(benchmark::internal::Benchmark* b) {
+  b->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime();
+}
+
 // m = 3, 4, 8 for the reference, and for the optimized kind on 1 and 2 threads.
 void Arguments(benchmark::internal::Benchmark* b) {
   b->ArgNames({"m", "optimized", "threads"});
@@ -112,14 +117,16 @@ void BM_MeseRange(benchmark::State& state) {
 }
 BENCHMARK(BM_MeseRange)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
-// The first frame of the simulated camera's `mirrors` scene at 163 x 120 with its physical
-// noise, measured as the daemon measures it (demodulation and smoothing, uncalibrated): the
-// data transientd reconstructs from sim:mirrors, noisier than MakeFrame's. Its pixels hold
-// weak returns beside strong ones, whose peaks may pass by their light (MeseFirstReturn). An
-// error message where the simulator or the pipeline refuse.
-absl::StatusOr<MomentImage> SimulatedFrame(int m) {
-  absl::StatusOr<SimulatorOptions> options =
-      ParseSimulatorUri(absl::StrCat("sim:mirrors?pace=fast&m=", m));
+// One capture cycle of a simulated camera, as the cycle assembler delivers it to the daemon.
+struct SimulatedCycle {
+  AcquisitionSchedule schedule;
+  ImageGeometry geometry;
+  std::vector<RawFrame> frames;
+};
+
+// The first complete cycle of the simulator at `uri`; an error message where it refuses.
+absl::StatusOr<SimulatedCycle> FirstSimulatedCycle(const std::string& uri) {
+  absl::StatusOr<SimulatorOptions> options = ParseSimulatorUri(uri);
   if (!options.ok()) return options.status();
   absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSimulator(*options);
   if (!source.ok()) return source.status();
@@ -128,24 +135,35 @@ absl::StatusOr<MomentImage> SimulatedFrame(int m) {
   const ImageGeometry geometry = (*source)->camera().geometry;
   absl::StatusOr<CycleAssembler> assembler = CycleAssembler::Create(schedule, geometry);
   if (!assembler.ok()) return assembler.status();
-  absl::StatusOr<FramePipeline> pipeline =
-      FramePipeline::Create(schedule, geometry, MeasureOptions{}, SolveOptions{});
-  if (!pipeline.ok()) return pipeline.status();
   RawFrame frame;
   for (int i = 0; i < 4 * schedule.raw_frames_per_frame(); ++i) {
     if (absl::Status status = (*source)->Next(absl::Seconds(10), &frame); !status.ok()) {
       return status;
     }
     absl::StatusOr<bool> complete = assembler->Add(std::move(frame));
-    if (complete.ok() && *complete) {
-      MomentImage moments;
-      if (absl::Status status = pipeline->Measure(assembler->TakeCycle(), &moments); !status.ok()) {
-        return status;
-      }
-      return moments;
-    }
+    if (complete.ok() && *complete)
+      return SimulatedCycle{schedule, geometry, assembler->TakeCycle()};
   }
-  return absl::InternalError("the simulator gave no complete cycle");
+  return absl::InternalError(absl::StrCat(uri, " gave no complete cycle"));
+}
+
+// The first frame of the simulated camera's `mirrors` scene at 163 x 120 with its physical
+// noise, measured as the daemon measures it (demodulation and smoothing, uncalibrated): the
+// data transientd reconstructs from sim:mirrors, noisier than MakeFrame's. Its pixels hold
+// weak returns beside strong ones, whose peaks may pass by their light (MeseFirstReturn). An
+// error message where the simulator or the pipeline refuse.
+absl::StatusOr<MomentImage> SimulatedFrame(int m) {
+  absl::StatusOr<SimulatedCycle> cycle =
+      FirstSimulatedCycle(absl::StrCat("sim:mirrors?pace=fast&m=", m));
+  if (!cycle.ok()) return cycle.status();
+  absl::StatusOr<FramePipeline> pipeline =
+      FramePipeline::Create(cycle->schedule, cycle->geometry, MeasureOptions{}, SolveOptions{});
+  if (!pipeline.ok()) return pipeline.status();
+  MomentImage moments;
+  if (absl::Status status = pipeline->Measure(cycle->frames, &moments); !status.ok()) {
+    return status;
+  }
+  return moments;
 }
 
 // MESE range on SimulatedFrame.
@@ -165,33 +183,19 @@ BENCHMARK(BM_MeseRangeSimulated)->Apply(Arguments)->Unit(benchmark::kMillisecond
 // threads (KernelOptions).
 void BM_Demodulate(benchmark::State& state) {
   SetKernelOptions({.threads = static_cast<int>(state.range(0))});
-  absl::StatusOr<SimulatorOptions> options =
-      ParseSimulatorUri("sim:mirrors?pace=fast&m=4&width=640&height=480");
-  absl::StatusOr<std::unique_ptr<CaptureSource>> source =
-      options.ok() ? OpenSimulator(*options)
-                   : absl::StatusOr<std::unique_ptr<CaptureSource>>(options.status());
-  absl::Status status = source.ok() ? (*source)->Start() : source.status();
-  std::vector<RawFrame> cycle;
-  if (status.ok()) {
-    const AcquisitionSchedule& schedule = (*source)->schedule();
-    for (int i = 0; i < schedule.raw_frames_per_frame() && status.ok(); ++i) {
-      RawFrame frame;
-      status = (*source)->Next(absl::Seconds(10), &frame);
-      cycle.push_back(std::move(frame));
-    }
-  }
+  const absl::StatusOr<SimulatedCycle> cycle =
+      FirstSimulatedCycle("sim:mirrors?pace=fast&m=4&width=640&height=480");
   absl::StatusOr<Demodulator> demodulator =
-      status.ok() ? Demodulator::Create((*source)->schedule(), (*source)->camera().geometry,
-                                        DemodulationOptions{.video = true})
-                  : absl::StatusOr<Demodulator>(status);
+      cycle.ok() ? Demodulator::Create(cycle->schedule, cycle->geometry,
+                                       DemodulationOptions{.video = true})
+                 : absl::StatusOr<Demodulator>(cycle.status());
   if (!demodulator.ok()) {
     state.SkipWithError(std::string(demodulator.status().message()).c_str());
     return;
   }
   MomentImage moments;
   for (auto _ : state) {
-    status = demodulator->Demodulate(cycle, &moments);
-    if (!status.ok()) {
+    if (absl::Status status = demodulator->Demodulate(cycle->frames, &moments); !status.ok()) {
       state.SkipWithError(std::string(status.message()).c_str());
       return;
     }
@@ -200,12 +204,7 @@ void BM_Demodulate(benchmark::State& state) {
       benchmark::Counter(static_cast<double>(state.iterations() * moments.geometry.pixel_count()),
                          benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_Demodulate)
-    ->ArgName("threads")
-    ->Arg(1)
-    ->Arg(2)
-    ->UseRealTime()
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Demodulate)->Apply(OnOneAndTwoThreads)->Unit(benchmark::kMillisecond);
 
 void BM_Pisarenko(benchmark::State& state) {
   const MomentImage image = MakeFrame(static_cast<int>(state.range(0)));
@@ -235,12 +234,7 @@ void BM_GaussianSmooth(benchmark::State& state) {
       benchmark::Counter(static_cast<double>(state.iterations() * frame.geometry.pixel_count()),
                          benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_GaussianSmooth)
-    ->ArgName("threads")
-    ->Arg(1)
-    ->Arg(2)
-    ->UseRealTime()
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_GaussianSmooth)->Apply(OnOneAndTwoThreads)->Unit(benchmark::kMillisecond);
 
 // Three-frequency phase unwrapping at the Kinect v2's size and harmonics (10, 2, 15 of 8 MHz):
 // the depth cameras' range. Arguments: kernel kind (0: UnwrapPixel per pixel on one thread),
