@@ -217,6 +217,38 @@ void BM_Pisarenko(benchmark::State& state) {
 }
 BENCHMARK(BM_Pisarenko)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
+// `transient bench`'s VGA pipeline row (640 x 480, m = 4: solve; range, amplitude and 64
+// density slices of the solved frame) one stage at a time, and whole. Arguments: the stage
+// (0 solve, 1 range, 2 amplitude, 3 slices, 4 all) and threads of the optimized kernels.
+void BM_VgaPipeline(benchmark::State& state) {
+  const int stage = static_cast<int>(state.range(0));
+  SetKernelOptions({.threads = static_cast<int>(state.range(1))});
+  const MomentImage image = tools::MakeBenchFrame({640, 480}, 4);
+  const int64_t pixels = image.geometry.pixel_count();
+  const std::vector<double> phases = UniformPhases(64);
+  std::vector<float> range(pixels), amplitude(pixels), slices(phases.size() * pixels);
+  std::vector<uint8_t> flags(pixels);
+  SolvedImage solved;
+  Solve(image, SolveOptions{}, &solved);
+  for (auto _ : state) {
+    if (stage == 0 || stage == 4) Solve(image, SolveOptions{}, &solved);
+    if (stage == 1 || stage == 4) {
+      flags = solved.flags;
+      MeseRange(solved, RangeOptions{}, range, flags);
+    }
+    if (stage == 2 || stage == 4) Amplitude(solved, amplitude);
+    if (stage == 3 || stage == 4) DensitySlices(solved, phases, slices);
+    benchmark::ClobberMemory();
+  }
+  state.counters["frames/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_VgaPipeline)
+    ->ArgNames({"stage", "threads"})
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {1, 2}})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
 // The daemon's smoothing of a frame's moments (sigma 0.6 px, every plane) at 640 x 480, m = 4.
 // Argument: threads (KernelOptions; the same arithmetic on any number).
 void BM_GaussianSmooth(benchmark::State& state) {
