@@ -174,6 +174,23 @@ TEST(Reconstructor, AmplitudeIsTheFirstHarmonicsModulus) {
   EXPECT_TRUE(std::isnan(amplitude[1]));
 }
 
+TEST(Reconstructor, AmplitudeKeepsFloatsExtremes) {
+  // Moduli near float's largest and smallest normal numbers: their squares are far outside
+  // float's range but inside double's, where Amplitude sums them.
+  MomentImage image({2, 1}, 1);
+  image.real_plane(0)[0] = 2e38f;
+  image.real_plane(1)[0] = 6e37f;
+  image.imag_plane(1)[0] = -8e37f;
+  image.real_plane(0)[1] = 4e-38f;
+  image.real_plane(1)[1] = 1.2e-38f;
+  image.imag_plane(1)[1] = 1.6e-38f;
+  const SolvedImage solved = Solve(image, SolveOptions{});
+  std::vector<float> amplitude(2);
+  Amplitude(solved, amplitude);
+  EXPECT_FLOAT_EQ(amplitude[0], 1e38f);
+  EXPECT_FLOAT_EQ(amplitude[1], 2e-38f);
+}
+
 TEST(Reconstructor, NoReturnIsFlaggedForAFlatResponse) {
   MomentImage image({1, 1}, 2);
   image.real_plane(0)[0] = 1.0f;  // all light uniform
