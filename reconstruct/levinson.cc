@@ -105,6 +105,9 @@ bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min_out, std::
   // which the step itself is added (quadratic convergence: its own error is far smaller).
   const double tolerance = kToeplitzLambdaTolerance * c0;
   double lambda_min = std::numeric_limits<double>::quiet_NaN();
+  // The iterate before lambda that a step reached, and q_0 there (RationalStep).
+  bool has_previous = false;
+  double previous_lambda = 0.0, previous_q0 = 0.0;
   for (int step = 0; step < kToeplitzLambdaMaxSteps; ++step) {
     if (outcome == LevinsonOutcome::kPositiveDefinite) {
       below = std::max(below, lambda);
@@ -118,7 +121,9 @@ bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min_out, std::
       lambda_min = lambda + newton;
       break;
     }
-    double next = lambda + newton;
+    double next = lambda + (has_previous ? RationalStep(newton, lambda - previous_lambda,
+                                                        q[0].real() - previous_q0, norm)
+                                         : newton);
     if (!(next > below && next < above)) {
       if (!(above - below > tolerance)) {
         lambda_min = 0.5 * (below + above);
@@ -135,6 +140,9 @@ bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min_out, std::
       above = next;  // past the leading minor's lambda_min: stay at lambda, bisect
       continue;
     }
+    has_previous = true;
+    previous_lambda = lambda;
+    previous_q0 = q[0].real();
     lambda = next;
     outcome = next_outcome;
     std::swap(q, trial);

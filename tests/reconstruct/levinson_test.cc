@@ -133,6 +133,30 @@ TEST(ToeplitzLambdaMin, AgreesWithTheDenseEigenSolveFromBothStarts) {
             << "); the recursion failed at 0 for " << failed_at_zero << "\n";
 }
 
+TEST(ToeplitzLambdaMin, RationalStepLandsOnItsModelsPoleFromEitherSide) {
+  // q_0 = b + a / (mu - lambda): RationalStep from lambda, with the iterate before at `before`,
+  // reaches mu, where Newton's step (exact only for b = 0) falls short or overshoots.
+  const double a = 0.3, b = 2.0, mu = -0.01;
+  const auto q0 = [&](double lambda) { return b + a / (mu - lambda); };
+  const auto slope = [&](double lambda) { return a / ((mu - lambda) * (mu - lambda)); };
+  const std::pair<double, double> iterates[] = {
+      {-0.05, -0.03},  // both below mu
+      {0.004, 0.001},  // both above (where q_0 < 0)
+      {-0.03, 0.001},  // one on each side
+  };
+  for (const auto& [before, lambda] : iterates) {
+    const double newton = q0(lambda) / slope(lambda);
+    const double step =
+        RationalStep(newton, lambda - before, q0(lambda) - q0(before), slope(lambda));
+    EXPECT_NEAR(lambda + step, mu, 1e-15) << "from " << before << " and " << lambda;
+    EXPECT_GT(std::abs(lambda + newton - mu), 1e-4) << "Newton alone would land there";
+  }
+  // Where the model has no finite step, or one the other way, Newton's.
+  EXPECT_EQ(RationalStep(0.01, 0.1, 0.2, 2.0), 0.01);    // |q|^2 h = rise: no finite model
+  EXPECT_EQ(RationalStep(0.01, 0.1, 0.3, 2.0), 0.01);    // the model steps back
+  EXPECT_EQ(RationalStep(-0.01, 0.1, 0.1, 2.0), -0.01);  // (0.01 forward: not Newton's way)
+}
+
 TEST(ToeplitzLambdaMin, DeclinesWhatItCannotStartFrom) {
   std::vector<Complex> q(3);
   double lambda_min = 0.0;
