@@ -183,26 +183,27 @@ void BM_MeseRangeSimulated(benchmark::State& state) {
 }
 BENCHMARK(BM_MeseRangeSimulated)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 
-// The solve of a calibrated camera's frame: the simulated camera's `mirrors` scene at
-// 640 x 480, m = 4, measured with a calibration of 4 takes of its `calibration` scene, as
-// `bench_daemon.sh`'s calibrated replay. The corrected moments of a sparse scene lie on the
-// boundary of the moment set, and most pixels need biasing's lambda_min. Argument: threads.
+// The simulated camera's `mirrors` scene at 640 x 480, m = 4, measured (MeasuredFrame) with a
+// calibration of 4 takes of its `calibration` scene, as `bench_daemon.sh`'s calibrated replay:
+// the corrected moments of a sparse scene lie on the boundary of the moment set, and most
+// pixels need biasing's lambda_min. An error message where the simulator or the pipeline refuse.
+absl::StatusOr<MomentImage> CalibratedVgaFrame() {
+  const std::string size = "pace=fast&m=4&width=640&height=480";
+  absl::StatusOr<SimulatorOptions> options = ParseSimulatorUri("sim:calibration?" + size);
+  if (!options.ok()) return options.status();
+  absl::StatusOr<std::unique_ptr<CaptureSource>> source = OpenSimulator(*options);
+  if (!source.ok()) return source.status();
+  absl::StatusOr<CalibrationCapture> calibration = CaptureCalibration(**source, 4);
+  if (!calibration.ok()) return calibration.status();
+  return MeasuredFrame(
+      "sim:mirrors?" + size,
+      MeasureOptions{.calibration = std::make_shared<const CalibrationTable>(calibration->table)});
+}
+
+// The solve of CalibratedVgaFrame, a calibrated camera's frame. Argument: threads.
 void BM_SolveCalibrated(benchmark::State& state) {
   SetKernelOptions({.threads = static_cast<int>(state.range(0))});
-  const std::string size = "pace=fast&m=4&width=640&height=480";
-  absl::StatusOr<MomentImage> image = absl::UnknownError("no calibration");
-  absl::StatusOr<SimulatorOptions> options = ParseSimulatorUri("sim:calibration?" + size);
-  absl::StatusOr<std::unique_ptr<CaptureSource>> source =
-      options.ok() ? OpenSimulator(*options) : options.status();
-  absl::StatusOr<CalibrationCapture> calibration =
-      source.ok() ? CaptureCalibration(**source, 4) : source.status();
-  if (calibration.ok()) {
-    image = MeasuredFrame("sim:mirrors?" + size,
-                          MeasureOptions{.calibration = std::make_shared<const CalibrationTable>(
-                                             calibration->table)});
-  } else {
-    image = calibration.status();
-  }
+  const absl::StatusOr<MomentImage> image = CalibratedVgaFrame();
   if (!image.ok()) {
     state.SkipWithError(std::string(image.status().message()).c_str());
     return;

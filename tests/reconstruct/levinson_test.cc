@@ -154,7 +154,7 @@ TEST(ToeplitzLambdaMin, RationalStepLandsOnItsModelsPoleFromEitherSide) {
   // Where the model has no finite step, or one the other way, Newton's.
   EXPECT_EQ(RationalStep(0.01, 0.1, 0.2, 2.0), 0.01);    // |q|^2 h = rise: no finite model
   EXPECT_EQ(RationalStep(0.01, 0.1, 0.3, 2.0), 0.01);    // the model steps back
-  EXPECT_EQ(RationalStep(-0.01, 0.1, 0.1, 2.0), -0.01);  // (0.01 forward: not Newton's way)
+  EXPECT_EQ(RationalStep(-0.01, 0.1, 0.1, 2.0), -0.01);  // the model's 0.1 goes the other way
 }
 
 TEST(ToeplitzLambdaMin, DeclinesWhatItCannotStartFrom) {

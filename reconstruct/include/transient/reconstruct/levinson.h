@@ -43,6 +43,17 @@ enum class LevinsonOutcome { kPositiveDefinite, kLastStepIndefinite, kFailed };
 // success q = (C(c) - lambda I)^{-1} e_0 at the last iterate lambda, which points along
 // lambda_min's eigenvector. q and c have the same size m+1.
 inline constexpr double kToeplitzLambdaTolerance = 1e-12;  // relative to c_0
+inline constexpr int kToeplitzLambdaMaxSteps = 64;  // Newton converges in ~5; bisection halves
+// Gershgorin's bound on lambda_min is c_0 - 2 sum_j |c_j| (|c_j| as the square root of
+// |c_j|^2, which SIMD lanes compute alike), less this much times c_0 to stay below it. Where
+// |c_j|^2 overflows (|c_j| beyond ~1e154) the steps need that bound and decline; where it
+// underflows (below ~1e-154) the value may not bound lambda_min, and the steps decline or
+// start closer.
+inline constexpr double kToeplitzGershgorinMargin = 1e-9;
+enum class ToeplitzStart { kGershgorin, kSearchBelowZero };
+[[nodiscard]] bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min,
+                                     std::span<Complex> q,
+                                     ToeplitzStart start = ToeplitzStart::kGershgorin);
 
 // ToeplitzLambdaMin's step from its second on: from an iterate lambda whose q_0 has Newton's
 // step `newton` = q_0 / |q|^2 (|q|^2 = q_0'(lambda), `norm`), given the iterate before it,
@@ -61,17 +72,6 @@ inline constexpr double kToeplitzLambdaTolerance = 1e-12;  // relative to c_0
   return model * newton > 0.0 && std::abs(model) <= std::numeric_limits<double>::max() ? model
                                                                                        : newton;
 }
-inline constexpr int kToeplitzLambdaMaxSteps = 64;  // Newton converges in ~5; bisection halves
-// Gershgorin's bound on lambda_min is c_0 - 2 sum_j |c_j| (|c_j| as the square root of
-// |c_j|^2, which SIMD lanes compute alike), less this much times c_0 to stay below it. Where
-// |c_j|^2 overflows (|c_j| beyond ~1e154) the steps need that bound and decline; where it
-// underflows (below ~1e-154) the value may not bound lambda_min, and the steps decline or
-// start closer.
-inline constexpr double kToeplitzGershgorinMargin = 1e-9;
-enum class ToeplitzStart { kGershgorin, kSearchBelowZero };
-[[nodiscard]] bool ToeplitzLambdaMin(std::span<const Complex> c, double* lambda_min,
-                                     std::span<Complex> q,
-                                     ToeplitzStart start = ToeplitzStart::kGershgorin);
 
 // Whether q, from ToeplitzLambdaMin, points along the eigenvector of a simple lambda_min: that
 // eigenvector of a Hermitian Toeplitz matrix is conjugate-persymmetric, so |q_m| = |q_0| (to
