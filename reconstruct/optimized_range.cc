@@ -45,11 +45,13 @@ namespace {
 // m = 16) stay in L1 while each pixel's grid is searched.
 constexpr int kRangeBlock = 64;
 // As RefineMinimum in range.cc, except that Newton stops after a step below 1e-6 rad rather
-// than 1e-10: its convergence is quadratic, so the step that would follow is of order
-// K 1e-12 rad (K = r'''/2r'' at the minimum, of order m), a millionth of float32's resolution
-// of the range (2.4e-7 m from 2 to 4 m, 1 rad ~ 1 m at 23 MHz) and far inside the 0.1 mm
-// contract. One Newton step fewer for most minima; the ranges written were bit-identical to
-// those with 1e-10 on every file tried (docs/speed.md).
+// than 1e-10. At a simple minimum convergence is quadratic, so the step that would follow is of
+// order K 1e-12 rad (K = r'''/2r'' there, of order m), some 1e-5 of float32's step of the range
+// at 2 to 4 m (2.4e-7 m; 1 rad ~ 1 m at 23 MHz). At a flat minimum of order 2k (r'' = 0 there)
+// it is linear with ratio (2k - 2) / (2k - 1), leaving at most (2k - 2) 1e-6 rad: 3e-5 rad for
+// k <= m <= 16, 3e-5 m at 23 MHz, inside the 0.1 mm contract. One Newton step fewer for most
+// minima; the ranges written were bit-identical to those with 1e-10 on every file tried, and a
+// last bit flips now and then (docs/speed.md).
 constexpr int kNewtonSteps = 8;
 constexpr double kPhaseTolerance = 1e-6;
 // Largest bin width (radians) of the vectorized path: e^{ix} for |x| <= 0.25 is its Taylor

@@ -149,7 +149,8 @@ TEST(ToeplitzLambdaMin, RationalStepLandsOnItsModelsPoleFromEitherSide) {
     const double step =
         RationalStep(newton, lambda - before, q0(lambda) - q0(before), slope(lambda));
     EXPECT_NEAR(lambda + step, mu, 1e-15) << "from " << before << " and " << lambda;
-    EXPECT_GT(std::abs(lambda + newton - mu), 1e-4) << "Newton alone would land there";
+    EXPECT_GT(std::abs(lambda + newton - mu), 1e-4)
+        << "Newton's step alone lands near mu: the case cannot tell";
   }
   // Where the model has no finite step, or one the other way, Newton's.
   EXPECT_EQ(RationalStep(0.01, 0.1, 0.2, 2.0), 0.01);    // |q|^2 h = rise: no finite model

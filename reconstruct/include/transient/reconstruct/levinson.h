@@ -28,8 +28,8 @@ enum class LevinsonOutcome { kPositiveDefinite, kLastStepIndefinite, kFailed };
                                               std::span<Complex> q);
 
 // lambda_min of C(c) by Newton's method on ShiftedLevinson (Cybenko and Van Loan 1986; the
-// derivation is in optimized_pisarenko.cc's header), from its second step on with a rational
-// model of q_0 instead (RationalStep below): each step's outcome says on which side of
+// derivation is in optimized_pisarenko.cc's header), or, once a step has reached an iterate,
+// by a rational model of q_0 (RationalStep below): each step's outcome says on which side of
 // lambda_min its iterate is, and a step that would leave the bracket known so far bisects it
 // instead. Stops once Newton's step is below kToeplitzLambdaTolerance c_0 (after adding it: the
 // convergence is quadratic), within kToeplitzLambdaMaxSteps recursions. The steps start at 0, or
@@ -55,7 +55,7 @@ enum class ToeplitzStart { kGershgorin, kSearchBelowZero };
                                      std::span<Complex> q,
                                      ToeplitzStart start = ToeplitzStart::kGershgorin);
 
-// ToeplitzLambdaMin's step from its second on: from an iterate lambda whose q_0 has Newton's
+// ToeplitzLambdaMin's step from an iterate that a step reached: from lambda, whose q_0 has Newton's
 // step `newton` = q_0 / |q|^2 (|q|^2 = q_0'(lambda), `norm`), given the iterate before it,
 // h = lambda - that iterate and rise = q_0(lambda) - q_0 there. Newton on 1 / q_0
 // is exact where q_0 = a / (lambda_min - lambda), one pole; the other eigenvalues add to q_0 a
