@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "bench_threads.h"
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/moment_depth_map.h"
 #include "transient/reconstruct/power_moments.h"
@@ -40,8 +41,7 @@ std::vector<float> DepthImage() {
 void BM_MomentDepthFrame(benchmark::State& state) {
   const MomentMapFormat format =
       state.range(0) == 0 ? MomentMapFormat::kOptimized64 : MomentMapFormat::kFloat128;
-  const int threads = static_cast<int>(state.range(2));
-  SetKernelOptions({.kind = KernelKind::kOptimized, .threads = threads});
+  UseThreadsArgument(state, 2);
   const std::vector<float> depth = DepthImage();
   absl::StatusOr<MomentDepthMapBuilder> builder = MomentDepthMapBuilder::Create(
       kGeometry,

@@ -6,6 +6,7 @@
 #include <random>
 #include <vector>
 
+#include "bench_threads.h"
 #include "transient/reconstruct/kernels.h"
 #include "transient/reconstruct/moment_filter.h"
 
@@ -29,14 +30,9 @@ std::vector<float> MomentMap() {
   return planes;
 }
 
-void SetThreads(const benchmark::State& state, int index) {
-  SetKernelOptions(
-      {.kind = KernelKind::kOptimized, .threads = static_cast<int>(state.range(index))});
-}
-
 // Arguments: sigma in px, threads.
 void BM_GaussianMomentFilter(benchmark::State& state) {
-  SetThreads(state, 1);
+  UseThreadsArgument(state, 1);
   const std::vector<float> in = MomentMap();
   std::vector<float> out(in.size());
   absl::StatusOr<GaussianMomentFilter> filter =
@@ -59,19 +55,14 @@ BENCHMARK(BM_GaussianMomentFilter)
 
 // Argument: threads.
 void BM_SummedAreaTableBuild(benchmark::State& state) {
-  SetThreads(state, 0);
+  UseThreadsArgument(state, 0);
   const std::vector<float> in = MomentMap();
   for (auto _ : state) {
     benchmark::DoNotOptimize(SummedAreaTable::Build(kGeometry, kChannels, in));
   }
   state.SetItemsProcessed(state.iterations() * kGeometry.pixel_count());
 }
-BENCHMARK(BM_SummedAreaTableBuild)
-    ->ArgNames({"threads"})
-    ->Arg(1)
-    ->Arg(2)
-    ->UseRealTime()
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SummedAreaTableBuild)->Apply(OnOneAndTwoThreads)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace transient

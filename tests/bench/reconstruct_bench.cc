@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "bench_threads.h"
 #include "tools/transient/commands/bench_command.h"
 #include "transient/drivers/calibration_capture.h"
 #include "transient/drivers/capture_source.h"
@@ -31,11 +32,6 @@ MomentImage MakeFrame(int m) { return tools::MakeBenchFrame({163, 120}, m); }
 void UseKernels(const benchmark::State& state) {
   SetKernelOptions({.kind = state.range(1) == 0 ? KernelKind::kReference : KernelKind::kOptimized,
                     .threads = static_cast<int>(state.range(2))});
-}
-
-// One argument, threads: 1 and 2 (KernelOptions), rates per wall-clock second.
-void OnOneAndTwoThreads(benchmark::internal::Benchmark* b) {
-  b->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime();
 }
 
 // m = 3, 4, 8 for the reference, and for the optimized kind on 1 and 2 threads.
@@ -203,7 +199,7 @@ absl::StatusOr<MomentImage> CalibratedVgaFrame() {
 
 // The solve of CalibratedVgaFrame, a calibrated camera's frame. Argument: threads.
 void BM_SolveCalibrated(benchmark::State& state) {
-  SetKernelOptions({.threads = static_cast<int>(state.range(0))});
+  UseThreadsArgument(state, 0);
   const absl::StatusOr<MomentImage> image = CalibratedVgaFrame();
   if (!image.ok()) {
     state.SkipWithError(std::string(image.status().message()).c_str());
@@ -226,7 +222,7 @@ BENCHMARK(BM_SolveCalibrated)->Apply(OnOneAndTwoThreads)->Unit(benchmark::kMilli
 // previous one and kept for the next; the same cycle, so no plane is filled). Argument:
 // threads (KernelOptions).
 void BM_Demodulate(benchmark::State& state) {
-  SetKernelOptions({.threads = static_cast<int>(state.range(0))});
+  UseThreadsArgument(state, 0);
   const absl::StatusOr<SimulatedCycle> cycle =
       FirstSimulatedCycle("sim:mirrors?pace=fast&m=4&width=640&height=480");
   absl::StatusOr<Demodulator> demodulator =
@@ -266,7 +262,7 @@ BENCHMARK(BM_Pisarenko)->Apply(Arguments)->Unit(benchmark::kMillisecond);
 // (0 solve, 1 range, 2 amplitude, 3 slices, 4 all) and threads of the optimized kernels.
 void BM_VgaPipeline(benchmark::State& state) {
   const int stage = static_cast<int>(state.range(0));
-  SetKernelOptions({.threads = static_cast<int>(state.range(1))});
+  UseThreadsArgument(state, 1);
   const MomentImage image = tools::MakeBenchFrame({640, 480}, 4);
   const int64_t pixels = image.geometry.pixel_count();
   const std::vector<double> phases = UniformPhases(64);
@@ -296,7 +292,7 @@ BENCHMARK(BM_VgaPipeline)
 // The daemon's smoothing of a frame's moments (sigma 0.6 px, every plane) at 640 x 480, m = 4.
 // Argument: threads (KernelOptions; the same arithmetic on any number).
 void BM_GaussianSmooth(benchmark::State& state) {
-  SetKernelOptions({.threads = static_cast<int>(state.range(0))});
+  UseThreadsArgument(state, 0);
   const MomentImage frame = tools::MakeBenchFrame({640, 480}, 4);
   MomentImage image = frame;
   for (auto _ : state) {
