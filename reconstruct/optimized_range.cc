@@ -116,8 +116,15 @@ RangeTables MakeRangeTables(int m, int bins) {
   return t;
 }
 
-// Slots of grid minima refined side by side (RefineSlots).
-constexpr int kRefineGroups = 2;
+// Slots of grid minima refined side by side (RefineSlots): a lane's m minima at once up to
+// m = 4, four at a time above. BM_MeseRange against two at a time (the least of seven
+// repetitions, five alternating rounds, one thread / two): m = 3 (three at once) 1.501 / 0.797
+// -> 1.333 / 0.732 ms, m = 4 2.002 / 1.024 -> 1.928 / 0.998 ms (docs/speed.md).
+constexpr int kRefineGroups = 4;
+template <int M>
+constexpr int RefineGroups() {
+  return M < kRefineGroups ? M : kRefineGroups;
+}
 
 // Per-thread working memory, reused from block to block.
 struct RangeScratch {
