@@ -88,8 +88,9 @@ inline Level CpuLevel() {
 
 // Unrolls the loop after it completely in the release builds: over an order's terms (at most
 // kMaxOrder) GCC at -O2 (the range kernel's level) kept the loop, its counter converted to a
-// double each time round. Not under the sanitizers, where Clang's compile time counts and speed
-// does not (the range kernel 22.7 -> 43 s there with it).
+// double each time round; over the range kernel's groups of minima (RefineSlots) it kept their
+// state in memory. Not under the sanitizers, where Clang's compile time counts and speed does
+// not (the range kernel 22.7 -> 43 s there with it).
 #if defined(TRANSIENT_SIMD_BASELINE_ONLY)
 #define TRANSIENT_UNROLL_ORDER
 #else

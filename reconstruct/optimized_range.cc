@@ -116,10 +116,10 @@ RangeTables MakeRangeTables(int m, int bins) {
   return t;
 }
 
-// Slots of grid minima refined side by side (RefineSlots): a lane's m minima at once up to
-// m = 4, four at a time above. BM_MeseRange against two at a time (the least of seven
-// repetitions, five alternating rounds, one thread / two): m = 3 (three at once) 1.501 / 0.797
-// -> 1.333 / 0.732 ms, m = 4 2.002 / 1.024 -> 1.928 / 0.998 ms (docs/speed.md).
+// Slots of grid minima refined side by side (RefineSlots): min(M, 4) of the padded order M, so
+// up to M = 4 all of a lane's minima at once. BM_MeseRange against two at a time (the least of
+// six alternating rounds of five repetitions, one thread / two): m = 3 1.487 / 0.775 ->
+// 1.342 / 0.700 ms, m = 4 1.964 / 0.998 -> 1.904 / 0.963 ms (docs/speed.md).
 constexpr int kRefineGroups = 4;
 template <int M>
 constexpr int RefineGroups() {
