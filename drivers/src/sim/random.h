@@ -4,12 +4,97 @@
 // what was generated before, which keeps captures reproducible.
 #pragma once
 
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
 #include <numbers>
 
 namespace transient::sim {
+
+// The natural logarithm of x in [2^-1022, 1] and the sine and cosine of 2 pi u for u in [0, 1],
+// in plain arithmetic, their choices made on bits, so that loops over them vectorize (the
+// simulator draws several million normals a VGA frame: Sensor::ReadRow). Within a unit or two
+// in the last place of std::log, std::sin and std::cos; the same bits in every build that does
+// not contract their multiply-adds (sensor.cc is compiled with -ffp-contract=off).
+//
+// log: x = 2^e y with y in [sqrt(1/2), sqrt(2)) (e and y from x's bits), f = y - 1 (exact);
+// with s = f / (2 + f), log(1 + f) = 2 atanh(s) = f - f^2/2 + s (f^2/2 + R),
+// R = sum_k 2 s^(2k) / (2k + 1), |s| <= 0.172: twelve terms leave under 1e-19 of it.
+inline double LogOfUnit(double x) {
+  constexpr uint64_t kSqrtHalf = 0x3fe6a09e667f3bcdULL;  // the bits of sqrt(1/2)
+  constexpr uint64_t kBias = 1024ULL << 52;              // keeps the difference positive
+  const uint64_t bits = std::bit_cast<uint64_t>(x);
+  const uint64_t shifted = bits - kSqrtHalf + kBias;  // (e + 1024) in its top 12 bits
+  const double y = std::bit_cast<double>(bits - (shifted & 0xfff0000000000000ULL) + kBias);
+  // e + 1024 as a double: its bits in the mantissa of 2^52, less 2^52.
+  const double e =
+      (std::bit_cast<double>((shifted >> 52) | std::bit_cast<uint64_t>(0x1p52)) - 0x1p52) - 1024.0;
+  const double f = y - 1.0;
+  const double s = f / (2.0 + f);
+  const double z = s * s;
+  double r = 2.0 / 25.0;
+#pragma GCC unroll 16
+  for (int k = 11; k >= 1; --k) r = r * z + 2.0 / (2 * k + 1);
+  r *= z;
+  const double half_f2 = 0.5 * f * f;
+  // ln 2 as a head of 32 bits (e * head is exact) and its tail.
+  constexpr double kLn2Head = 0x1.62e42fee00000p-1;
+  constexpr double kLn2Tail = std::numbers::ln2 - kLn2Head;
+  return e * kLn2Head - ((half_f2 - (s * (half_f2 + r) + e * kLn2Tail)) - f);
+}
+
+// sin(2 pi u) and cos(2 pi u) for u in [0, 1]: u = k/4 + t with k = rint(4u) and |t| <= 1/8
+// (exact: u and k/4 are multiples of u's last place), the Taylor series of sin x and cos x for
+// x = 2 pi t, |x| <= pi/4, to x^19 and x^18 (the terms left are under 1e-18 of the result),
+// turned by k quarter turns.
+namespace internal {
+inline constexpr int kSinCosTerms = 10;
+// (-1)^j / (2j + 1)! and (-1)^j / (2j)!
+inline constexpr auto kSinCosCoefficients = [] {
+  struct {
+    double sine[kSinCosTerms], cosine[kSinCosTerms];
+  } c{};
+  double factorial = 1.0;  // (2j)!
+  for (int j = 0; j < kSinCosTerms; ++j) {
+    if (j > 0) factorial *= (2.0 * j - 1.0) * (2.0 * j);
+    const double sign = j % 2 == 0 ? 1.0 : -1.0;
+    c.cosine[j] = sign / factorial;
+    c.sine[j] = sign / (factorial * (2.0 * j + 1.0));
+  }
+  return c;
+}();
+}  // namespace internal
+
+inline void SinCosOfTurns(double u, double* sine, double* cosine) {
+  const double rounded = 4.0 * u + 0x1.8p52;                      // rint(4u) in its last bits
+  const uint64_t quarter = std::bit_cast<uint64_t>(rounded) & 3;  // k mod 4
+  const double x = 2.0 * std::numbers::pi * (u - 0.25 * (rounded - 0x1.8p52));
+  const double x2 = x * x;
+  const auto& c = internal::kSinCosCoefficients;
+  double sp = c.sine[internal::kSinCosTerms - 1], cp = c.cosine[internal::kSinCosTerms - 1];
+#pragma GCC unroll 16
+  for (int j = internal::kSinCosTerms - 2; j >= 0; --j) {
+    sp = sp * x2 + c.sine[j];
+    cp = cp * x2 + c.cosine[j];
+  }
+  // sin(x + k pi/2), cos(x + k pi/2): swapped for odd k, the sine's sign flipped for k = 2, 3
+  // and the cosine's for k = 1, 2.
+  const uint64_t s = std::bit_cast<uint64_t>(x * sp), co = std::bit_cast<uint64_t>(cp);
+  const uint64_t swap = 0 - (quarter & 1);
+  *sine = std::bit_cast<double>(((co & swap) | (s & ~swap)) ^ ((quarter & 2) << 62));
+  *cosine = std::bit_cast<double>(((s & swap) | (co & ~swap)) ^ (((quarter + 1) & 2) << 62));
+}
+
+// Two independent standard normals from two uniforms, u1 in (0, 1] and u2 in [0, 1)
+// (Box-Muller): sqrt(-2 log u1) (cos 2 pi u2, sin 2 pi u2).
+inline void BoxMuller(double u1, double u2, double* a, double* b) {
+  const double radius = std::sqrt(-2.0 * LogOfUnit(u1));
+  double sine, cosine;
+  SinCosOfTurns(u2, &sine, &cosine);
+  *a = radius * cosine;
+  *b = radius * sine;
+}
 
 inline uint64_t SplitMix64(uint64_t* state) {
   uint64_t z = (*state += 0x9e3779b97f4a7c15ULL);
@@ -42,17 +127,15 @@ class Random {
     return result;
   }
 
-  // Uniform in [0, 1) with 53 random bits.
-  double Uniform() { return static_cast<double>(Next() >> 11) * 0x1.0p-53; }
+  // Uniform in [0, 1) with 53 random bits (of Next()'s `bits`).
+  double Uniform() { return UniformOf(Next()); }
+  static double UniformOf(uint64_t bits) { return static_cast<double>(bits >> 11) * 0x1.0p-53; }
   double Uniform(double lo, double hi) { return lo + (hi - lo) * Uniform(); }
 
   // Two independent standard normals (Box-Muller).
   void Normals(double* a, double* b) {
     const double u1 = 1.0 - Uniform();  // (0, 1]: log stays finite
-    const double radius = std::sqrt(-2.0 * std::log(u1));
-    const double angle = 2.0 * std::numbers::pi * Uniform();
-    *a = radius * std::cos(angle);
-    *b = radius * std::sin(angle);
+    BoxMuller(u1, Uniform(), a, b);
   }
   double Normal() {
     double a, b;

@@ -40,12 +40,22 @@ class Sensor {
   //            variance, and A - B gets one normal of variance A + B + 2 * read_noise^2;
   //  gaussian: A - B gets Gaussian noise of std light / snr (thesis fig. 8.12);
   //  none:     expected values.
+  //  The noise is drawn in batches and its normals transformed in vector registers wherever a
+  //  row draws the same each pixel (every row of the usual exposures); others go pixel by pixel
+  //  (ReadRowReference). Both give the same values from the same stream.
   void ReadRow(const TapInput& input, int64_t offset, int count, uint64_t sequence, int row,
                float* out) const;
+  // The same pixel by pixel, drawing each number as it is needed: the reference ReadRow is
+  // tested against.
+  void ReadRowReference(const TapInput& input, int64_t offset, int count, uint64_t sequence,
+                        int row, float* out) const;
 
   static constexpr double kPoissonLimit = 20.0;
 
  private:
+  // A - B (electrons, with noise) of the pixel in column `column` of `count` as output.
+  float Output(double difference, bool full, int column, int count) const;
+
   NoiseModel noise_;
   uint64_t seed_;
   double ambient_e_;  // electrons per exposure

@@ -2,12 +2,19 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <numbers>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "sim/random.h"
+#include "sim/sensor.h"
 #include "tests/drivers/sim/sim_test_util.h"
+#include "transient/drivers/simulator.h"
 
 namespace transient::sim::testing {
 namespace {
@@ -156,6 +163,77 @@ TEST(SensorNoise, FloatOutputMarksFullTapsToo) {
       Capture(absl::StrCat("sim:calibration?adc_bits=0&brightness=1e10&", kSmall), 1);
   EXPECT_EQ(bright[0][0].pixels[0], bright[0][0].saturation_level);
   EXPECT_TRUE(std::isfinite(bright[0][0].saturation_level));
+}
+
+// ReadRow draws a row's normals in batches and transforms them in vector registers; its
+// reference draws each as a pixel needs it. Every draw pattern (one normal a pixel, the unlit
+// tap B of an unmodulated exposure, a dark pixel that sends the row pixel by pixel, Gaussian
+// noise, no noise), every output (12-bit ADC, float, the Kinect's companded samples), rows
+// shorter and longer than a batch and of odd length: the same bits.
+TEST(SensorNoise, ReadRowIsItsReferenceBitForBit) {
+  constexpr int kWidth = 601;  // over two batches of 256, odd
+  std::vector<float> light(kWidth), differential(kWidth);
+  for (int i = 0; i < kWidth; ++i) {
+    light[i] = 50.0f + 30000.0f * static_cast<float>(i % 97) / 97.0f;
+    differential[i] = light[i] * std::sin(0.37f * static_cast<float>(i));
+  }
+  std::vector<float> dark_light = light;
+  dark_light[433] = 0.0f;  // with ambient=0: both taps under the Poisson limit
+  std::vector<float> dark_differential = differential;
+  dark_differential[433] = 0.0f;
+  int rows = 0;
+  for (const char* settings : {"", "&adc_bits=0", "&camera=kinect2", "&noise=gaussian",
+                               "&noise=none", "&ambient=0", "&ambient=0&adc_bits=0"}) {
+    auto options = ParseSimulatorUri(absl::StrCat("sim:mirrors?", settings));
+    ASSERT_TRUE(options.ok()) << options.status();
+    const Sensor sensor(*options);
+    for (bool modulated : {true, false}) {
+      for (bool dark : {false, true}) {
+        TapInput input;
+        input.modulated = modulated;
+        input.light = dark ? dark_light.data() : light.data();
+        input.differential = dark ? dark_differential.data() : differential.data();
+        for (int count : {kWidth, 7, 1}) {
+          std::vector<float> fast(count), reference(count);
+          sensor.ReadRow(input, 0, count, /*sequence=*/11, /*row=*/3, fast.data());
+          sensor.ReadRowReference(input, 0, count, 11, 3, reference.data());
+          for (int i = 0; i < count; ++i) {
+            ASSERT_EQ(std::bit_cast<uint32_t>(fast[i]), std::bit_cast<uint32_t>(reference[i]))
+                << settings << (modulated ? " modulated" : " unmodulated") << (dark ? " dark" : "")
+                << " width " << count << " column " << i << ": " << fast[i] << " against "
+                << reference[i];
+          }
+          ++rows;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(rows, 7 * 2 * 2 * 3);
+}
+
+// The simulator's Box-Muller in plain arithmetic against the C library's log, sin and cos.
+TEST(SensorNoise, BoxMullersLogarithmAndSinesAreTheLibrarys) {
+  Random random({7, 8});
+  for (int i = 0; i < 200000; ++i) {
+    const double u1 = 1.0 - random.Uniform(), u2 = random.Uniform();
+    const double log = std::log(u1);
+    ASSERT_NEAR(LogOfUnit(u1), log, 2.3e-16 * std::abs(log)) << u1;
+    double sine, cosine;
+    SinCosOfTurns(u2, &sine, &cosine);
+    // 2 pi u2 rounded to a double is off by up to 4.4e-16 rad from the angle meant.
+    ASSERT_NEAR(sine, std::sin(2.0 * std::numbers::pi * u2), 1e-15) << u2;
+    ASSERT_NEAR(cosine, std::cos(2.0 * std::numbers::pi * u2), 1e-15) << u2;
+  }
+  for (double x : {1.0, 0.5, std::numbers::sqrt2 / 2.0, 0x1p-53, 0x1p-1022}) {
+    EXPECT_NEAR(LogOfUnit(x), std::log(x), 2.3e-16 * std::abs(std::log(x))) << x;
+  }
+  for (const auto& [u, sine, cosine] :
+       {std::tuple{0.0, 0.0, 1.0}, {0.25, 1.0, 0.0}, {0.5, 0.0, -1.0}, {0.75, -1.0, 0.0}}) {
+    double s, c;
+    SinCosOfTurns(u, &s, &c);
+    EXPECT_EQ(s, sine) << u;
+    EXPECT_EQ(c, cosine) << u;
+  }
 }
 
 }  // namespace
