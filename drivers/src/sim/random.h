@@ -10,16 +10,26 @@
 #include <initializer_list>
 #include <numbers>
 
+// The rounding by adding and subtracting 1.5 * 2^52 below (and in sensor.cc) is what
+// -ffast-math would fold away.
+#ifdef __FAST_MATH__
+#error "the simulator's random numbers need IEEE arithmetic: do not build them with -ffast-math"
+#endif
+
 namespace transient::sim {
 
 // The natural logarithm of x in [2^-1022, 1] and the sine and cosine of 2 pi u for u in [0, 1],
 // in plain arithmetic, their choices made on bits, so that loops over them vectorize (the
-// simulator draws several million normals a VGA frame: Sensor::ReadRow). Within a unit or two
-// in the last place of std::log, std::sin and std::cos; the same bits in every build that does
-// not contract their multiply-adds (sensor.cc is compiled with -ffp-contract=off).
+// simulator draws several million normals a VGA frame: Sensor::ReadRow). The logarithm within
+// a unit in the last place of std::log, sine and cosine within 7.3e-16 of std::sin and std::cos
+// (tests/drivers/sim/sensor_noise_test.cc). The same bits wherever their multiply-adds are not
+// fused: in this project's builds, which target the baseline x86-64 (no FMA instruction) except
+// in sensor.cc's clones, compiled with -ffp-contract=off. Outside the domains the results are
+// wrong, not errors (LogOfUnit(0) is -1023 ln 2 rather than -inf).
 //
-// log: x = 2^e y with y in [sqrt(1/2), sqrt(2)) (e and y from x's bits), f = y - 1 (exact);
-// with s = f / (2 + f), log(1 + f) = 2 atanh(s) = f - f^2/2 + s (f^2/2 + R),
+// log (the argument reduction and the series of fdlibm's e_log.c, with the series' plain
+// coefficients): x = 2^e y with y in [sqrt(1/2), sqrt(2)) (e and y from x's bits), f = y - 1
+// (exact); with s = f / (2 + f), log(1 + f) = 2 atanh(s) = f - f^2/2 + s (f^2/2 + R),
 // R = sum_k 2 s^(2k) / (2k + 1), |s| <= 0.172: twelve terms leave under 1e-19 of it.
 inline double LogOfUnit(double x) {
   constexpr uint64_t kSqrtHalf = 0x3fe6a09e667f3bcdULL;  // the bits of sqrt(1/2)

@@ -55,39 +55,46 @@ Charges ChargesOf(double light, double difference, bool modulated, double ambien
   return {light + ambient, 0.0};
 }
 
+}  // namespace
+
 // The output of A - B = `difference` electrons: black level + difference / electrons a unit,
-// through the ADC (rounded to a code, saturated outside 0..max_valid) or as a float; a full tap
-// gives `saturation` either way. In plain arithmetic that vectorizes: floor(value + 0.5) by
-// rounding to an integer in the last bits of 1.5 * 2^52 (exact below 2^51; above it the code
-// saturates either way).
-struct Digitizer {
+// through the ADC (rounded to a code, saturated outside 0..max_valid), as a float or as the
+// Kinect's companded sample (NaN in the first and last column); a full tap gives `saturation`.
+// In plain arithmetic that vectorizes, but for the Kinect's companding.
+struct Sensor::Digitizer {
   double black_level, scale, max_valid;
   float saturation;
+  Adc adc;
+  bool float_output;
 
   double Value(double difference) const { return black_level + difference * scale; }
-  float Adc(double difference, bool full) const {
-    const double half_up = Value(difference) + 0.5;
-    const double rounded = (half_up + 0x1.8p52) - 0x1.8p52;
-    const double code = rounded > half_up ? rounded - 1.0 : rounded;
+  float Code(double difference, bool full) const {
+    const double code = Sensor::RoundHalfUp(Value(difference));
     const bool saturated = full || code < 0.0 || code > max_valid;
     return saturated ? saturation : static_cast<float>(code);
   }
   float Float(double difference, bool full) const {
     return full ? saturation : static_cast<float>(Value(difference));
   }
-};
-
-}  // namespace
-
-float Sensor::Output(double difference, bool full, int column, int count) const {
-  const Digitizer digitizer{black_level_, 1.0 / electrons_per_unit_, max_valid_, saturation_level_};
-  if (adc_ == Adc::kKinect2) {
+  float Kinect(double difference, bool full, int column, int count) const {
     const bool dead = column == 0 || column == count - 1;  // the camera's unreadable columns
     return dead   ? std::numeric_limits<float>::quiet_NaN()
-           : full ? saturation_level_
-                  : kinect2::QuantizeSample(digitizer.Value(difference));
+           : full ? saturation
+                  : kinect2::QuantizeSample(Value(difference));
   }
-  return adc_bits_ == 0 ? digitizer.Float(difference, full) : digitizer.Adc(difference, full);
+  float Output(double difference, bool full, int column, int count) const {
+    if (adc == Adc::kKinect2) return Kinect(difference, full, column, count);
+    return float_output ? Float(difference, full) : Code(difference, full);
+  }
+};
+
+Sensor::Digitizer Sensor::MakeDigitizer() const {
+  return {black_level_,  1.0 / electrons_per_unit_, max_valid_, saturation_level_, adc_,
+          adc_bits_ == 0};
+}
+
+float Sensor::Output(double difference, bool full, int column, int count) const {
+  return MakeDigitizer().Output(difference, full, column, count);
 }
 
 void Sensor::ReadRowReference(const TapInput& input, int64_t offset, int count, uint64_t sequence,
@@ -164,73 +171,97 @@ constexpr int kBatch = 256;
   }
 }
 
-}  // namespace
-
-// ReadRow's loops in vector registers of 2, 4 or 8 doubles: compiled for the baseline, AVX2 and
-// AVX-512, the best this CPU runs chosen when the library loads (GCC's target_clones; the same
-// bits in each, as no multiply-add is contracted). Only the baseline under Clang (the sanitizer
-// build).
-#if defined(__GNUC__) && !defined(__clang__)
-#define TRANSIENT_SENSOR_CLONES \
-  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define TRANSIENT_SENSOR_CLONES
-#endif
-
-TRANSIENT_SENSOR_CLONES
-void Sensor::ReadRow(const TapInput& input, int64_t offset, int count, uint64_t sequence, int row,
-                     float* out) const {
-  // Batches of the taps' charges, their noise and their output, each choice made outside the
-  // loops so that they vectorize.
-  double expected_a[kBatch], expected_b[kBatch], normals[2 * kBatch];
-  auto charges = [&](int start, int n) {
-    const float* light = input.light + offset + start;
-    const float* differential = input.differential + offset + start;
-    const double gain = input.light_gain, ambient = ambient_e_;
-    auto each = [&](bool modulated, auto light_of, auto difference_of) {
-      for (int i = 0; i < n; ++i) {
-        const Charges c = ChargesOf(light_of(i), difference_of(i), modulated, ambient);
-        expected_a[i] = c.a;
-        expected_b[i] = c.b;
-      }
-    };
-    if (input.illuminated) {
-      each(
-          input.modulated, [&](int i) { return gain * light[i]; },
-          [&](int i) { return gain * differential[i]; });
-    } else {
-      auto none = [](int) { return 0.0; };
-      each(input.modulated, none, none);
+// The taps' charges (ChargesOf) of pixels [first, first + n) into a[] and b[], n <= kBatch,
+// the choice of light made outside the loop: a load under `illuminated ? ... : 0.0` kept it
+// scalar.
+[[gnu::always_inline]] inline void BatchCharges(const TapInput& input, int64_t first, int n,
+                                                double ambient, double* a, double* b) {
+  const float* light = input.light + first;
+  const float* differential = input.differential + first;
+  const double gain = input.light_gain;
+  auto each = [&](auto light_of, auto difference_of) {
+    for (int i = 0; i < n; ++i) {
+      const Charges c = ChargesOf(light_of(i), difference_of(i), input.modulated, ambient);
+      a[i] = c.a;
+      b[i] = c.b;
     }
   };
+  if (input.illuminated) {
+    each([&](int i) { return gain * light[i]; }, [&](int i) { return gain * differential[i]; });
+  } else {
+    auto none = [](int) { return 0.0; };
+    each(none, none);
+  }
+}
 
-  // What ReadRowReference draws a pixel (its order): nothing; one normal (noise gaussian, or
-  // physical with both taps Gaussian); or, for an unmodulated exposure (tap B empty) whose tap A
-  // is Gaussian, a normal for each tap and tap B's Poisson(0), which draws one uniform and is 0.
-  // A row with any other pixel (a tap with Poisson shot noise) goes pixel by pixel.
-  bool one_normal = false;
-  if (noise_ == NoiseModel::kPhysical) {
-    int poisson_a = 0, poisson_b = 0;  // taps under the limit (or NaN)
-    for (int start = 0; start < count; start += kBatch) {
-      const int n = std::min(kBatch, count - start);
-      charges(start, n);
-      for (int i = 0; i < n; ++i) {
-        poisson_a += !(expected_a[i] >= kPoissonLimit);
-        poisson_b += !(expected_b[i] >= kPoissonLimit);
-      }
-    }
-    one_normal = poisson_a == 0 && poisson_b == 0;
-    const bool unlit_tap_b = poisson_a == 0 && !input.modulated;  // b = 0 in every pixel
-    if (!one_normal && !unlit_tap_b) {
-      ReadRowReference(input, offset, count, sequence, row, out);
-      return;
+}  // namespace
+
+namespace {
+
+// The taps of pixels [offset, offset + count) under the Poisson limit (or NaN), in vector
+// registers as ReadBatches' loops (below). (A struct of its own: Clang 15 left a std::pair's
+// constructor undefined in the clones.)
+struct PoissonCounts {
+  int a, b;
+};
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) PoissonCounts
+PoissonTaps(const TapInput& input, int64_t offset, int count, double ambient) {
+  int poisson_a = 0, poisson_b = 0;
+  double a[kBatch], b[kBatch];
+  for (int start = 0; start < count; start += kBatch) {
+    const int n = std::min(kBatch, count - start);
+    BatchCharges(input, offset + start, n, ambient, a, b);
+    for (int i = 0; i < n; ++i) {
+      poisson_a += !(a[i] >= Sensor::kPoissonLimit);
+      poisson_b += !(b[i] >= Sensor::kPoissonLimit);
     }
   }
+  return PoissonCounts{poisson_a, poisson_b};
+}
 
-  Random random({seed_, kStreamNoise, sequence, static_cast<uint64_t>(row)});
-  const double read2 = read_noise_ * read_noise_, read_noise = read_noise_, snr = snr_;
-  const double full_well = full_well_;
-  const Digitizer digitizer{black_level_, 1.0 / electrons_per_unit_, max_valid_, saturation_level_};
+}  // namespace
+
+Sensor::Draws Sensor::RowDraws(const TapInput& input, int64_t offset, int count) const {
+  switch (noise_) {
+    case NoiseModel::kNone:
+      return Draws::kNothing;
+    case NoiseModel::kGaussian:
+      return Draws::kOneNormal;
+    case NoiseModel::kPhysical:
+      break;
+  }
+  const PoissonCounts poisson = PoissonTaps(input, offset, count, ambient_e_);
+  if (poisson.a == 0 && poisson.b == 0) return Draws::kOneNormal;
+  if (poisson.a == 0 && !input.modulated) return Draws::kUnlitTapB;  // b = 0 in every pixel
+  return Draws::kPixelByPixel;
+}
+
+namespace {
+
+// What ReadRow's loops take of the sensor and the row.
+struct RowBatches {
+  const TapInput& input;
+  int64_t offset;
+  int count;
+  Sensor::Draws draws;
+  bool gaussian;  // noise = gaussian (else physical or none)
+  double ambient, read_noise, snr, full_well;
+};
+
+// ReadRow's loops in vector registers of 8, 4 or 2 doubles: compiled for AVX-512, AVX2 and the
+// baseline, the best this CPU runs chosen when the library loads (target_clones, as the density
+// kernel's DensityOrbits; a file-local function, which GCC and Clang both clone). The same bits
+// in each clone, as no multiply-add is fused (sensor.cc is compiled with -ffp-contract=off). The
+// lambdas are inlined into each clone.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void ReadBatches(
+    const RowBatches& row, const Sensor::Digitizer& digitizer_of_sensor, Random& random,
+    float* out) {
+  // Copies: a store to `out` could otherwise change what the loops read through references.
+  const Sensor::Digitizer digitizer = digitizer_of_sensor;
+  const TapInput& input = row.input;
+  const double read2 = row.read_noise * row.read_noise, read_noise = row.read_noise;
+  const double snr = row.snr, full_well = row.full_well;
+  double expected_a[kBatch], expected_b[kBatch], normals[2 * kBatch];
   auto pixels = [&](int start, int n, auto noise, auto output) {
     for (int i = 0; i < n; ++i) {
       const double a = expected_a[i], b = expected_b[i];
@@ -239,28 +270,29 @@ void Sensor::ReadRow(const TapInput& input, int64_t offset, int count, uint64_t 
     }
   };
   auto with_output = [&](int start, int n, auto noise) {
-    if (adc_ == Adc::kKinect2) {
-      pixels(start, n, noise,
-             [&](double v, bool full, int column) { return Output(v, full, column, count); });
-    } else if (adc_bits_ == 0) {
+    if (digitizer.adc == Adc::kKinect2) {
+      pixels(start, n, noise, [&](double v, bool full, int column) {
+        return digitizer.Kinect(v, full, column, row.count);
+      });
+    } else if (digitizer.float_output) {
       pixels(start, n, noise, [&](double v, bool full, int) { return digitizer.Float(v, full); });
     } else {
-      pixels(start, n, noise, [&](double v, bool full, int) { return digitizer.Adc(v, full); });
+      pixels(start, n, noise, [&](double v, bool full, int) { return digitizer.Code(v, full); });
     }
   };
-  for (int start = 0; start < count; start += kBatch) {
-    const int n = std::min(kBatch, count - start);
-    charges(start, n);
-    if (noise_ == NoiseModel::kNone) {
+  for (int start = 0; start < row.count; start += kBatch) {
+    const int n = std::min(kBatch, row.count - start);
+    BatchCharges(input, row.offset + start, n, row.ambient, expected_a, expected_b);
+    if (row.draws == Sensor::Draws::kNothing) {
       with_output(start, n, [](double a, double b, int, int) { return a - b; });
-    } else if (noise_ == NoiseModel::kGaussian) {
+    } else if (row.gaussian) {
       DrawNormals(random, (n + 1) / 2, false, normals);
-      const float* light = input.light + offset;
+      const float* light = input.light + row.offset;
       const double gain = input.light_gain;
       with_output(start, n, [&](double a, double b, int column, int i) {
         return (a - b) + gain * light[column] / snr * normals[i];
       });
-    } else if (one_normal) {
+    } else if (row.draws == Sensor::Draws::kOneNormal) {
       DrawNormals(random, (n + 1) / 2, false, normals);
       with_output(start, n, [&](double a, double b, int, int i) {
         return (a - b) + std::sqrt(a + b + 2.0 * read2) * normals[i];
@@ -273,6 +305,21 @@ void Sensor::ReadRow(const TapInput& input, int64_t offset, int count, uint64_t 
       });
     }
   }
+}
+
+}  // namespace
+
+void Sensor::ReadRow(const TapInput& input, int64_t offset, int count, uint64_t sequence, int row,
+                     float* out) const {
+  const Draws draws = RowDraws(input, offset, count);
+  if (draws == Draws::kPixelByPixel) {
+    ReadRowReference(input, offset, count, sequence, row, out);
+    return;
+  }
+  Random random({seed_, kStreamNoise, sequence, static_cast<uint64_t>(row)});
+  ReadBatches(RowBatches{input, offset, count, draws, noise_ == NoiseModel::kGaussian, ambient_e_,
+                         read_noise_, snr_, full_well_},
+              MakeDigitizer(), random, out);
 }
 
 }  // namespace transient::sim

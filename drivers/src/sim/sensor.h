@@ -41,20 +41,47 @@ class Sensor {
   //  gaussian: A - B gets Gaussian noise of std light / snr (thesis fig. 8.12);
   //  none:     expected values.
   //  The noise is drawn in batches and its normals transformed in vector registers wherever a
-  //  row draws the same each pixel (every row of the usual exposures); others go pixel by pixel
-  //  (ReadRowReference). Both give the same values from the same stream.
+  //  row draws the same each pixel (RowDraws: every row of the usual exposures); others go
+  //  pixel by pixel (ReadRowReference). Both give the same values from the same stream.
   void ReadRow(const TapInput& input, int64_t offset, int count, uint64_t sequence, int row,
                float* out) const;
-  // The same pixel by pixel, drawing each number as it is needed: the reference ReadRow is
-  // tested against.
+  // The same pixel by pixel, drawing each number as it is needed, in the order of the code
+  // before the batches (2026-12-06): the reference ReadRow is tested against. It shares the
+  // taps' charges, the Box-Muller transform (random.h) and the ADC's rounding (RoundHalfUp)
+  // with ReadRow; those are tested on their own.
   void ReadRowReference(const TapInput& input, int64_t offset, int count, uint64_t sequence,
                         int row, float* out) const;
 
+  // What ReadRowReference draws for each pixel of a row, in its order:
+  enum class Draws {
+    kNothing,       // noise none
+    kOneNormal,     // noise gaussian, or physical with both taps above kPoissonLimit
+    kUnlitTapB,     // physical, unmodulated (tap B empty), tap A above the limit: a normal for
+                    // each tap, then tap B's Poisson(0), which draws one uniform and is 0
+    kPixelByPixel,  // any other (a tap with Poisson shot noise, or NaN)
+  };
+  // The same for every pixel of the row (ReadRow draws it in batches), or kPixelByPixel.
+  Draws RowDraws(const TapInput& input, int64_t offset, int count) const;
+
+  // floor(value + 0.5), the ADC's rounding, in plain arithmetic that vectorizes: rounded to an
+  // integer in the last bits of 1.5 * 2^52 (round to nearest), then one less where that went up.
+  // Exact for |value| < 2^51; beyond, within 1 of it (the ADC saturates there either way), and
+  // infinities and NaN pass through.
+  static double RoundHalfUp(double value) {
+    const double half_up = value + 0.5;
+    const double rounded = (half_up + 0x1.8p52) - 0x1.8p52;
+    return rounded > half_up ? rounded - 1.0 : rounded;
+  }
+
   static constexpr double kPoissonLimit = 20.0;
+
+  // The output's constants and arithmetic (sensor.cc), which ReadRow's loops share.
+  struct Digitizer;
 
  private:
   // A - B (electrons, with noise) of the pixel in column `column` of `count` as output.
   float Output(double difference, bool full, int column, int count) const;
+  Digitizer MakeDigitizer() const;
 
   NoiseModel noise_;
   uint64_t seed_;

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <numbers>
 #include <string>
+#include <string_view>
 #include <tuple>
 #include <vector>
 
@@ -165,74 +166,163 @@ TEST(SensorNoise, FloatOutputMarksFullTapsToo) {
   EXPECT_TRUE(std::isfinite(bright[0][0].saturation_level));
 }
 
-// ReadRow draws a row's normals in batches and transforms them in vector registers; its
-// reference draws each as a pixel needs it. Every draw pattern (one normal a pixel, the unlit
-// tap B of an unmodulated exposure, a dark pixel that sends the row pixel by pixel, Gaussian
-// noise, no noise), every output (12-bit ADC, float, the Kinect's companded samples), rows
-// shorter and longer than a batch and of odd length: the same bits.
-TEST(SensorNoise, ReadRowIsItsReferenceBitForBit) {
-  constexpr int kWidth = 601;  // over two batches of 256, odd
-  std::vector<float> light(kWidth), differential(kWidth);
-  for (int i = 0; i < kWidth; ++i) {
-    light[i] = 50.0f + 30000.0f * static_cast<float>(i % 97) / 97.0f;
-    differential[i] = light[i] * std::sin(0.37f * static_cast<float>(i));
+// A row of test light for ReadRow (electrons per exposure): bright pixels of every phase, and
+// variants with a dark pixel, a NaN and a negative value.
+struct TestRow {
+  std::vector<float> light, differential;
+};
+TestRow MakeRow(int width, int odd_pixel, float odd_value) {
+  TestRow row{std::vector<float>(width), std::vector<float>(width)};
+  for (int i = 0; i < width; ++i) {
+    row.light[i] = 50.0f + 30000.0f * static_cast<float>(i % 97) / 97.0f;
+    row.differential[i] = row.light[i] * std::sin(0.37f * static_cast<float>(i));
   }
-  std::vector<float> dark_light = light;
-  dark_light[433] = 0.0f;  // with ambient=0: both taps under the Poisson limit
-  std::vector<float> dark_differential = differential;
-  dark_differential[433] = 0.0f;
-  int rows = 0;
-  for (const char* settings : {"", "&adc_bits=0", "&camera=kinect2", "&noise=gaussian",
-                               "&noise=none", "&ambient=0", "&ambient=0&adc_bits=0"}) {
-    auto options = ParseSimulatorUri(absl::StrCat("sim:mirrors?", settings));
+  if (odd_pixel >= 0) {
+    row.light[odd_pixel] = odd_value;
+    row.differential[odd_pixel] = 0.0f;
+  }
+  return row;
+}
+
+// ReadRow draws a row's normals in batches and transforms them in vector registers, in the
+// clone of its loops this CPU runs; its reference draws each as a pixel needs it. Every draw
+// pattern (RowDraws, asserted, so that the batches do run), every output (12-bit ADC, float,
+// the Kinect's companded samples with their dead columns), lit and unlit exposures, an outlier's
+// gain, rows at an offset into their frame, shorter and longer than a batch of 256 and of odd
+// length, and rows with a dark pixel, a NaN or a negative light (pixel by pixel): the same bits.
+TEST(SensorNoise, ReadRowIsItsReferenceBitForBit) {
+  constexpr int kOffset = 13;                // the row starts inside its frame's planes
+  constexpr int kPlane = kOffset + 601 + 5;  // room for the longest row
+  const TestRow bright = MakeRow(kPlane, -1, 0.0f);
+  // Each variant's odd pixel inside every row length tried but 1 and 7.
+  const TestRow dark = MakeRow(kPlane, kOffset + 200, 0.0f);  // with ambient=0: under the limit
+  const TestRow nan = MakeRow(kPlane, kOffset + 200, std::nanf(""));
+  const TestRow negative = MakeRow(kPlane, kOffset + 200, -500.0f);
+  using Draws = Sensor::Draws;
+  struct Case {
+    const char* settings;
+    Draws bright_modulated, bright_unmodulated, dark_row;
+  };
+  const Case cases[] = {
+      {"", Draws::kOneNormal, Draws::kUnlitTapB, Draws::kOneNormal},  // ambient keeps it lit
+      {"&adc_bits=0", Draws::kOneNormal, Draws::kUnlitTapB, Draws::kOneNormal},
+      {"&camera=kinect2", Draws::kOneNormal, Draws::kUnlitTapB, Draws::kOneNormal},
+      {"&camera=kinect2&noise=gaussian", Draws::kOneNormal, Draws::kOneNormal, Draws::kOneNormal},
+      {"&camera=kinect2&noise=none", Draws::kNothing, Draws::kNothing, Draws::kNothing},
+      {"&noise=gaussian", Draws::kOneNormal, Draws::kOneNormal, Draws::kOneNormal},
+      {"&noise=none", Draws::kNothing, Draws::kNothing, Draws::kNothing},
+      // Without ambient light, tap A of a pixel whose light is nearly all in its differential
+      // part (its phase near pi) holds under the limit: the modulated rows go pixel by pixel.
+      {"&ambient=0", Draws::kPixelByPixel, Draws::kUnlitTapB, Draws::kPixelByPixel},
+      {"&ambient=0&adc_bits=0", Draws::kPixelByPixel, Draws::kUnlitTapB, Draws::kPixelByPixel},
+  };
+  int rows = 0, batched = 0;
+  for (const Case& c : cases) {
+    auto options = ParseSimulatorUri(absl::StrCat("sim:mirrors?", c.settings));
     ASSERT_TRUE(options.ok()) << options.status();
     const Sensor sensor(*options);
-    for (bool modulated : {true, false}) {
-      for (bool dark : {false, true}) {
-        TapInput input;
-        input.modulated = modulated;
-        input.light = dark ? dark_light.data() : light.data();
-        input.differential = dark ? dark_differential.data() : differential.data();
-        for (int count : {kWidth, 7, 1}) {
-          std::vector<float> fast(count), reference(count);
-          sensor.ReadRow(input, 0, count, /*sequence=*/11, /*row=*/3, fast.data());
-          sensor.ReadRowReference(input, 0, count, 11, 3, reference.data());
-          for (int i = 0; i < count; ++i) {
-            ASSERT_EQ(std::bit_cast<uint32_t>(fast[i]), std::bit_cast<uint32_t>(reference[i]))
-                << settings << (modulated ? " modulated" : " unmodulated") << (dark ? " dark" : "")
-                << " width " << count << " column " << i << ": " << fast[i] << " against "
-                << reference[i];
+    for (const TestRow* light : {&bright, &dark, &nan, &negative}) {
+      for (bool modulated : {true, false}) {
+        for (bool illuminated : {true, false}) {
+          for (double gain : {1.0, 1.3}) {
+            TapInput input;
+            input.modulated = modulated;
+            input.illuminated = illuminated;
+            input.light_gain = gain;
+            input.light = light->light.data();
+            input.differential = light->differential.data();
+            for (int count : {601, 512, 257, 256, 7, 1}) {
+              const std::string what =
+                  absl::StrCat(c.settings, modulated ? " modulated" : " unmodulated",
+                               illuminated ? "" : " unlit", " gain ", gain, " width ", count,
+                               light == &bright ? "" : " with an odd pixel");
+              const Draws draws = sensor.RowDraws(input, kOffset, count);
+              if (light == &bright && illuminated) {
+                EXPECT_EQ(draws, modulated ? c.bright_modulated : c.bright_unmodulated) << what;
+              }
+              if (light == &dark && illuminated && modulated && count > 7) {
+                EXPECT_EQ(draws, c.dark_row) << what;
+              }
+              if ((light == &nan || light == &negative) && illuminated && count > 7 &&
+                  c.bright_modulated != Draws::kNothing &&
+                  std::string_view(c.settings).find("gaussian") == std::string_view::npos) {
+                EXPECT_EQ(draws, Draws::kPixelByPixel) << what;
+              }
+              batched += draws != Draws::kPixelByPixel;
+              std::vector<float> fast(count), reference(count);
+              sensor.ReadRow(input, kOffset, count, /*sequence=*/11, /*row=*/3, fast.data());
+              sensor.ReadRowReference(input, kOffset, count, 11, 3, reference.data());
+              for (int i = 0; i < count; ++i) {
+                ASSERT_EQ(std::bit_cast<uint32_t>(fast[i]), std::bit_cast<uint32_t>(reference[i]))
+                    << what << ", column " << i << ": " << fast[i] << " against " << reference[i];
+              }
+              ++rows;
+            }
           }
-          ++rows;
         }
       }
     }
   }
-  EXPECT_EQ(rows, 7 * 2 * 2 * 3);
+  EXPECT_EQ(rows, 9 * 4 * 2 * 2 * 2 * 6);
+  EXPECT_GT(batched, rows / 2);
+}
+
+// The ADC's rounding in plain arithmetic is floor(value + 0.5) wherever a code can be valid,
+// halves and negatives included, and passes infinities and NaN through.
+TEST(SensorNoise, RoundHalfUpIsFloorOfValuePlusAHalf) {
+  for (double value :
+       {0.0, -0.0, 0.5, -0.5, 1.5, 2.5, -1.5, 0.49999999999999994, 4095.5, 4094.4999999999995,
+        65534.5, -1e-300, 1e-300, 123456.75, -7.25, 0x1p51 - 0.5, -0x1p51 + 0.5, 0x1p51 - 1.0}) {
+    EXPECT_EQ(Sensor::RoundHalfUp(value), std::floor(value + 0.5)) << value;
+  }
+  Random random({9});
+  for (int i = 0; i < 100000; ++i) {
+    const double value = random.Uniform(-70000.0, 70000.0);
+    ASSERT_EQ(Sensor::RoundHalfUp(value), std::floor(value + 0.5)) << value;
+  }
+  // Beyond 2^51 within 1 of it: far outside any ADC's codes, which saturate there either way.
+  for (double value : {0x1p51 + 0.5, 0x1p52 + 1.0, -0x1p53, 1e300, -1e300}) {
+    EXPECT_LE(std::abs(Sensor::RoundHalfUp(value) - std::floor(value + 0.5)), 1.0) << value;
+  }
+  EXPECT_EQ(Sensor::RoundHalfUp(INFINITY), INFINITY);
+  EXPECT_EQ(Sensor::RoundHalfUp(-INFINITY), -INFINITY);
+  EXPECT_TRUE(std::isnan(Sensor::RoundHalfUp(NAN)));
 }
 
 // The simulator's Box-Muller in plain arithmetic against the C library's log, sin and cos.
 TEST(SensorNoise, BoxMullersLogarithmAndSinesAreTheLibrarys) {
+  // Within a unit in the last place of the logarithm (measured: at most 1.00 over 2e7 draws).
+  constexpr double kLogRelative = 2.3e-16;
+  // sin and cos of 2 pi u: the C library's argument, 2 pi u rounded to a double, is itself off
+  // by up to 4.4e-16 rad (measured: at most 7.3e-16 apart over 2e7 draws).
+  constexpr double kSineAbsolute = 1e-15;
   Random random({7, 8});
   for (int i = 0; i < 200000; ++i) {
     const double u1 = 1.0 - random.Uniform(), u2 = random.Uniform();
     const double log = std::log(u1);
-    ASSERT_NEAR(LogOfUnit(u1), log, 2.3e-16 * std::abs(log)) << u1;
+    ASSERT_NEAR(LogOfUnit(u1), log, kLogRelative * std::abs(log)) << u1;
     double sine, cosine;
     SinCosOfTurns(u2, &sine, &cosine);
-    // 2 pi u2 rounded to a double is off by up to 4.4e-16 rad from the angle meant.
-    ASSERT_NEAR(sine, std::sin(2.0 * std::numbers::pi * u2), 1e-15) << u2;
-    ASSERT_NEAR(cosine, std::cos(2.0 * std::numbers::pi * u2), 1e-15) << u2;
+    ASSERT_NEAR(sine, std::sin(2.0 * std::numbers::pi * u2), kSineAbsolute) << u2;
+    ASSERT_NEAR(cosine, std::cos(2.0 * std::numbers::pi * u2), kSineAbsolute) << u2;
   }
-  for (double x : {1.0, 0.5, std::numbers::sqrt2 / 2.0, 0x1p-53, 0x1p-1022}) {
-    EXPECT_NEAR(LogOfUnit(x), std::log(x), 2.3e-16 * std::abs(std::log(x))) << x;
+  for (double x : {1.0, 0.5, std::numbers::sqrt2 / 2.0,
+                   std::nextafter(std::numbers::sqrt2 / 2.0, 1.0), 0x1p-53, 0x1p-1022}) {
+    EXPECT_NEAR(LogOfUnit(x), std::log(x), kLogRelative * std::abs(std::log(x))) << x;
   }
+  // Quarter turns exactly; eighths (where rint(4u) rounds a tie) and 1 as the library.
   for (const auto& [u, sine, cosine] :
        {std::tuple{0.0, 0.0, 1.0}, {0.25, 1.0, 0.0}, {0.5, 0.0, -1.0}, {0.75, -1.0, 0.0}}) {
     double s, c;
     SinCosOfTurns(u, &s, &c);
     EXPECT_EQ(s, sine) << u;
     EXPECT_EQ(c, cosine) << u;
+  }
+  for (double u : {0.125, 0.375, 0.625, 0.875, 1.0}) {
+    double s, c;
+    SinCosOfTurns(u, &s, &c);
+    EXPECT_NEAR(s, std::sin(2.0 * std::numbers::pi * u), kSineAbsolute) << u;
+    EXPECT_NEAR(c, std::cos(2.0 * std::numbers::pi * u), kSineAbsolute) << u;
   }
 }
 
