@@ -194,10 +194,6 @@ constexpr int kBatch = 256;
   }
 }
 
-}  // namespace
-
-namespace {
-
 // The taps of pixels [offset, offset + count) under the Poisson limit (or NaN), in vector
 // registers as ReadBatches' loops (below). (A struct of its own: Clang 15 left a std::pair's
 // constructor undefined in the clones.)
