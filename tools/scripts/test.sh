@@ -36,6 +36,42 @@ phase() {
 # only what the tests leave, so the soak and the memory test, RUN_SERIAL, still have the cores
 # they need) and in this session (a session of its own would be an autogroup of its own, which
 # the kernel gives an equal share whatever its tasks' policy). docs/tests.md has the figures.
+#
+# The sanitizer build's configure (one core for 7-15 s, most of it the compilers' checks) runs in
+# the background from the start, beside the GCC configure and build, instead of on its own
+# between the GCC build and the sanitizer build, where it left a core idle.
+# -g1: line tables only, so sanitizer reports keep file:line and the build stays fast.
+mkdir -p "$asan_dir"
+asan_configure_log=$asan_dir/configure.log
+echo "== make test: the sanitizer build's configure starts in the background: $asan_configure_log"
+set -m # a process group of its own, so that a phase that fails below stops it
+# shellcheck disable=SC2086
+cmake -S . -B "$asan_dir" -G Ninja -DCMAKE_C_COMPILER=clang-15 -DCMAKE_CXX_COMPILER=clang++-15 \
+  -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-g1 -DCMAKE_C_FLAGS_DEBUG=-g1 \
+  -DTRANSIENT_BUILD_TESTS=ON -DTRANSIENT_SANITIZE=ON -DTRANSIENT_WERROR=ON $cmake_flags \
+  </dev/null >"$asan_configure_log" 2>&1 &
+asan_configure_pid=$!
+set +m
+release_log=$release_dir/release-tests.log
+release_pid=
+stop_background() {
+  if [[ -n $asan_configure_pid ]]; then
+    kill -- "-$asan_configure_pid" 2>/dev/null || true
+  fi
+  if [[ -n $release_pid ]]; then
+    kill -- "-$release_pid" 2>/dev/null || true
+    echo "== make test: stopped the release tests; what they printed until then: $release_log"
+  fi
+}
+trap stop_background EXIT
+wait_for_asan_configure() {
+  local status=0
+  wait "$asan_configure_pid" || status=$?
+  asan_configure_pid=
+  cat "$asan_configure_log"
+  return "$status"
+}
+
 # shellcheck disable=SC2086
 phase "configure (GCC, Release)" \
   cmake -S . -B "$release_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release -DTRANSIENT_BUILD_TESTS=ON \
@@ -43,15 +79,6 @@ phase "configure (GCC, Release)" \
 phase "build the release tests (GCC, Release)" \
   cmake --build "$release_dir" -j "$jobs" --target transient_release_tests
 
-release_log=$release_dir/release-tests.log
-release_pid=
-stop_release_tests() {
-  if [[ -n $release_pid ]]; then
-    kill -- "-$release_pid" 2>/dev/null || true
-    echo "== make test: stopped the release tests; what they printed until then: $release_log"
-  fi
-}
-trap stop_release_tests EXIT
 echo "== make test: the release tests (label release) start in the background: $release_log"
 set -m # a process group of their own, so that a phase that fails below stops all of them
 ctest --test-dir "$release_dir" --output-on-failure -j "$jobs" -L release --timeout 600 \
@@ -66,12 +93,7 @@ wait_for_release_tests() {
   return "$status"
 }
 
-# -g1: line tables only, so sanitizer reports keep file:line and the build stays fast.
-# shellcheck disable=SC2086
-phase "configure (Clang, ASan + UBSan)" \
-  cmake -S . -B "$asan_dir" -G Ninja -DCMAKE_C_COMPILER=clang-15 -DCMAKE_CXX_COMPILER=clang++-15 \
-    -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-g1 -DCMAKE_C_FLAGS_DEBUG=-g1 \
-    -DTRANSIENT_BUILD_TESTS=ON -DTRANSIENT_SANITIZE=ON -DTRANSIENT_WERROR=ON $cmake_flags
+phase "configure (Clang, ASan + UBSan): the rest" wait_for_asan_configure
 phase "build (Clang, ASan + UBSan), idle priority" \
   chrt --idle 0 cmake --build "$asan_dir" -j "$jobs"
 phase "release tests (label release): the rest" wait_for_release_tests
