@@ -40,37 +40,44 @@ phase() {
 # The sanitizer build's configure (one core for 7-15 s, most of it the compilers' checks) runs in
 # the background from the start, beside the GCC configure and build, instead of on its own
 # between the GCC build and the sanitizer build, where it left a core idle.
-# -g1: line tables only, so sanitizer reports keep file:line and the build stays fast.
-mkdir -p "$asan_dir"
-asan_configure_log=$asan_dir/configure.log
-echo "== make test: the sanitizer build's configure starts in the background: $asan_configure_log"
-set -m # a process group of its own, so that a phase that fails below stops it
-# shellcheck disable=SC2086
-cmake -S . -B "$asan_dir" -G Ninja -DCMAKE_C_COMPILER=clang-15 -DCMAKE_CXX_COMPILER=clang++-15 \
-  -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-g1 -DCMAKE_C_FLAGS_DEBUG=-g1 \
-  -DTRANSIENT_BUILD_TESTS=ON -DTRANSIENT_SANITIZE=ON -DTRANSIENT_WERROR=ON $cmake_flags \
-  </dev/null >"$asan_configure_log" 2>&1 &
-asan_configure_pid=$!
-set +m
-release_log=$release_dir/release-tests.log
-release_pid=
-stop_background() {
-  if [[ -n $asan_configure_pid ]]; then
-    kill -- "-$asan_configure_pid" 2>/dev/null || true
-  fi
-  if [[ -n $release_pid ]]; then
-    kill -- "-$release_pid" 2>/dev/null || true
-    echo "== make test: stopped the release tests; what they printed until then: $release_log"
-  fi
+
+# A phase in the background: start_background KEY LOG COMMAND... runs COMMAND with its output in
+# LOG, in a process group of its own, so that a phase that fails stops it (with a word on where
+# its output is); wait_for_background KEY waits for it, prints LOG and returns its status.
+declare -A background_pids background_logs
+start_background() {
+  local name=$1 log=$2
+  shift 2
+  echo "== make test: $name starts in the background: $log"
+  set -m
+  "$@" </dev/null >"$log" 2>&1 &
+  background_pids[$name]=$!
+  background_logs[$name]=$log
+  set +m
 }
-trap stop_background EXIT
-wait_for_asan_configure() {
-  local status=0
-  wait "$asan_configure_pid" || status=$?
-  asan_configure_pid=
-  cat "$asan_configure_log"
+wait_for_background() {
+  local name=$1 status=0
+  wait "${background_pids[$name]}" || status=$?
+  unset "background_pids[$name]"
+  cat "${background_logs[$name]}"
   return "$status"
 }
+stop_background() {
+  local name
+  for name in "${!background_pids[@]}"; do
+    kill -- "-${background_pids[$name]}" 2>/dev/null || true
+    echo "== make test: stopped $name; what it printed until then: ${background_logs[$name]}"
+  done
+}
+trap stop_background EXIT
+
+# -g1: line tables only, so sanitizer reports keep file:line and the build stays fast.
+mkdir -p "$asan_dir"
+# shellcheck disable=SC2086
+start_background sanitizer-configure "$asan_dir/configure.log" \
+  cmake -S . -B "$asan_dir" -G Ninja -DCMAKE_C_COMPILER=clang-15 -DCMAKE_CXX_COMPILER=clang++-15 \
+    -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG=-g1 -DCMAKE_C_FLAGS_DEBUG=-g1 \
+    -DTRANSIENT_BUILD_TESTS=ON -DTRANSIENT_SANITIZE=ON -DTRANSIENT_WERROR=ON $cmake_flags
 
 # shellcheck disable=SC2086
 phase "configure (GCC, Release)" \
@@ -79,24 +86,15 @@ phase "configure (GCC, Release)" \
 phase "build the release tests (GCC, Release)" \
   cmake --build "$release_dir" -j "$jobs" --target transient_release_tests
 
-echo "== make test: the release tests (label release) start in the background: $release_log"
-set -m # a process group of their own, so that a phase that fails below stops all of them
-ctest --test-dir "$release_dir" --output-on-failure -j "$jobs" -L release --timeout 600 \
-  </dev/null >"$release_log" 2>&1 &
-release_pid=$!
-set +m
-wait_for_release_tests() {
-  local status=0
-  wait "$release_pid" || status=$?
-  release_pid=
-  cat "$release_log"
-  return "$status"
-}
+start_background release-tests "$release_dir/release-tests.log" \
+  ctest --test-dir "$release_dir" --output-on-failure -j "$jobs" -L release --timeout 600
 
-phase "configure (Clang, ASan + UBSan): the rest" wait_for_asan_configure
+phase "configure (Clang, ASan + UBSan): the rest" \
+  wait_for_background sanitizer-configure
 phase "build (Clang, ASan + UBSan), idle priority" \
   chrt --idle 0 cmake --build "$asan_dir" -j "$jobs"
-phase "release tests (label release): the rest" wait_for_release_tests
+phase "release tests (label release): the rest" \
+  wait_for_background release-tests
 # OpenMP threads that wait for work sleep instead of spinning (OMP_WAIT_POLICY=passive): several
 # tests run at a time, and a test's spinning team took CPU from the others (docs/tests.md). The
 # release tests keep the default, as users run them. One test more than there are cores: with
